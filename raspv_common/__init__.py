@@ -1,0 +1,1 @@
+"""Shared pieces every package uses: camera model, ROS <-> numpy conversions, node base, parameters."""

@@ -1,0 +1,144 @@
+"""Node parameters declared as data (no ROS imports).
+
+Every node kind publishes its parameters as a list of :class:`Param` in a light module (e.g.
+``raspv_spv/spv_params.py``). The launcher validates a graph file against these schemas before
+starting anything, and the node base declares them in rclpy with descriptors (type, range,
+description) and checks every run-time change with the same code.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Mapping, Sequence
+
+_TYPE_NAMES = {bool: "bool", int: "int", float: "float", str: "string", list: "list"}
+
+
+@dataclass(frozen=True)
+class Param:
+    """One node parameter.
+
+    ``default`` fixes the type (bool, int, float, str, or a list of one of those). ``minimum`` and
+    ``maximum`` bound numbers (inclusive); ``choices`` restricts values to a set. ``dynamic``
+    says whether it may change while the node runs (``raspv param set``).
+    """
+
+    name: str
+    default: Any
+    description: str
+    minimum: float | None = None
+    maximum: float | None = None
+    choices: Sequence[Any] | None = None
+    dynamic: bool = True
+    unit: str = ""
+
+    @property
+    def kind(self) -> type:
+        return list if isinstance(self.default, (list, tuple)) else type(self.default)
+
+    @property
+    def element_kind(self) -> type | None:
+        if self.kind is not list:
+            return None
+        return type(self.default[0]) if self.default else str
+
+    def type_name(self) -> str:
+        if self.kind is list:
+            return f"list of {_TYPE_NAMES.get(self.element_kind, '?')}"
+        return _TYPE_NAMES.get(self.kind, self.kind.__name__)
+
+    def allowed(self) -> str:
+        """Human description of what values are allowed."""
+        parts = [self.type_name()]
+        if self.choices is not None:
+            parts.append("one of " + ", ".join(repr(c) for c in self.choices))
+        if self.minimum is not None and self.maximum is not None:
+            parts.append(f"in [{self.minimum}, {self.maximum}]")
+        elif self.minimum is not None:
+            parts.append(f">= {self.minimum}")
+        elif self.maximum is not None:
+            parts.append(f"<= {self.maximum}")
+        return " ".join(parts)
+
+    def coerce(self, value: Any) -> Any:
+        """Return ``value`` converted to this parameter's type, or raise ``ValueError`` saying
+        what is allowed. Ints are accepted for floats; nothing else is converted silently."""
+        kind = self.kind
+        if kind is list:
+            if not isinstance(value, (list, tuple)):
+                raise ValueError(f"expected {self.allowed()}, got {type(value).__name__} {value!r}")
+            elem = Param(self.name, self.default[0] if self.default else "", self.description,
+                         self.minimum, self.maximum, self.choices)
+            return [elem.coerce(v) for v in value]
+        if kind is bool:
+            if not isinstance(value, bool):
+                raise ValueError(f"expected {self.allowed()}, got {type(value).__name__} {value!r}")
+            out: Any = value
+        elif kind is int:
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ValueError(f"expected {self.allowed()}, got {type(value).__name__} {value!r}")
+            out = value
+        elif kind is float:
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"expected {self.allowed()}, got {type(value).__name__} {value!r}")
+            out = float(value)
+            if not math.isfinite(out):
+                raise ValueError(f"expected a finite number ({self.allowed()}), got {value!r}")
+        elif kind is str:
+            if not isinstance(value, str):
+                raise ValueError(f"expected {self.allowed()}, got {type(value).__name__} {value!r}")
+            out = value
+        else:  # pragma: no cover - schema error
+            raise TypeError(f"parameter {self.name}: unsupported type {kind}")
+        if self.choices is not None and out not in self.choices:
+            raise ValueError(f"{out!r} is not allowed; expected {self.allowed()}")
+        if self.minimum is not None and out < self.minimum:
+            raise ValueError(f"{out!r} is out of range; expected {self.allowed()}")
+        if self.maximum is not None and out > self.maximum:
+            raise ValueError(f"{out!r} is out of range; expected {self.allowed()}")
+        return out
+
+
+@dataclass
+class ParamSchema:
+    """The parameters of one node kind, by name."""
+
+    params: dict[str, Param] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, params: Iterable[Param]) -> "ParamSchema":
+        out: dict[str, Param] = {}
+        for p in params:
+            if p.name in out:
+                raise ValueError(f"parameter {p.name!r} declared twice")
+            p.coerce(p.default)  # a schema whose default is invalid is a programming error
+            out[p.name] = p
+        return cls(out)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.params
+
+    def __getitem__(self, name: str) -> Param:
+        return self.params[name]
+
+    def __iter__(self):
+        return iter(self.params.values())
+
+    def defaults(self) -> dict[str, Any]:
+        return {p.name: (list(p.default) if isinstance(p.default, tuple) else p.default) for p in self}
+
+    def validate(self, values: Mapping[str, Any]) -> tuple[dict[str, Any], list[tuple[str, str]]]:
+        """Check ``values`` against the schema. Returns (coerced values, errors) where each
+        error is (key, message naming what is allowed)."""
+        good: dict[str, Any] = {}
+        errors: list[tuple[str, str]] = []
+        for key, value in values.items():
+            if key not in self.params:
+                known = ", ".join(sorted(self.params)) or "(none)"
+                errors.append((key, f"unknown parameter; this node has: {known}"))
+                continue
+            try:
+                good[key] = self.params[key].coerce(value)
+            except ValueError as exc:
+                errors.append((key, str(exc)))
+        return good, errors
