@@ -1,0 +1,24 @@
+"""`raspv bench <name>`: benchmarks that print figures and ratios against peers.
+
+Each entry is a module exposing ``add_arguments(parser)`` and ``run(args) -> int``.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+
+BENCHES: dict[str, str] = {
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="bench", metavar="NAME", required=True)
+    for name, module in sorted(BENCHES.items()):
+        mod = importlib.import_module(module)
+        p = sub.add_parser(name, help=(mod.__doc__ or "").strip().splitlines()[0] if mod.__doc__ else None)
+        mod.add_arguments(p)
+        p.set_defaults(_bench_module=mod)
+
+
+def run(args: argparse.Namespace) -> int:
+    return args._bench_module.run(args)

@@ -1,0 +1,55 @@
+"""The ``raspv`` command line (ROS 2's ``ros2`` CLI is not on PyPI, so we ship what users need).
+
+Each subcommand is a module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
+modules are imported only when their command runs, so ``raspv --help`` stays fast.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# name → (module, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "launch": ("raspv_bringup.launch_cli", "start a node graph from a YAML file and supervise it"),
+    "demo": ("raspv_bringup.demo_cli", "run the virtual-world demo graph (config/demo.yaml)"),
+    "topics": ("raspv_bringup.introspect_cli", "list topics and their types"),
+    "hz": ("raspv_bringup.introspect_cli", "measure the publishing rate of a topic"),
+    "echo": ("raspv_bringup.introspect_cli", "print messages of a topic"),
+    "param": ("raspv_bringup.param_cli", "get, set or list a running node's parameters"),
+    "nodes": ("raspv_bringup.nodes_cli", "list the node kinds and their parameters"),
+    "bench": ("raspv_bringup.bench", "benchmarks with figures and ratios against peers"),
+}
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="raspv", description="RASPV: augmented simulated prosthetic vision on ROS 2")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        if command == name:  # import only the module of the command being run
+            mod = importlib.import_module(module)
+            adder = getattr(mod, f"add_arguments_{name.replace('-', '_')}", None) or mod.add_arguments
+            adder(p)
+            p.set_defaults(_module=mod, _name=name)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(command if command in COMMANDS else None)
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return 0
+    mod = args._module
+    runner = getattr(mod, f"run_{args._name.replace('-', '_')}", None) or mod.run
+    try:
+        return int(runner(args) or 0)
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

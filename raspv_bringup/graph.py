@@ -1,0 +1,215 @@
+"""Graph files: a standard ROS 2 parameter file plus a ``launch:`` section (no rclpy).
+
+```yaml
+launch:
+  env: {KEY: value}              # optional, extra environment for every node
+  nodes:
+    - kind: sim                  # node kind, see `raspv nodes`
+      name: sim                  # optional, node name (default: the kind)
+      restart: false             # optional, restart it when it dies instead of stopping the graph
+    - kind: spv
+sim:
+  ros__parameters: {world: apartment}
+spv:
+  ros__parameters: {device: default, mode: grey}
+```
+
+Everything is checked before any process starts; every mistake is reported as
+``<file>: <key>: <what is wrong and what is allowed>``.
+"""
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from raspv_bringup.registry import NODES, schema_for
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+CONFIG_DIR = REPO_ROOT / "config"
+_NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+_NODE_KEYS = {"kind", "name", "restart", "env"}
+GLOBAL_PARAMS = {"use_sim_time": False}  # accepted for every node (ROS built-in)
+
+
+class GraphError(Exception):
+    """One or more mistakes in a graph file; ``str()`` gives one line per mistake."""
+
+    def __init__(self, errors: list[str]):
+        super().__init__("\n".join(errors))
+        self.errors = errors
+
+
+@dataclass
+class NodeEntry:
+    kind: str
+    name: str
+    restart: bool
+    params: dict[str, Any]
+    env: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def module(self) -> str:
+        return NODES[self.kind].module
+
+
+@dataclass
+class Graph:
+    path: Path
+    nodes: list[NodeEntry]
+    env: dict[str, str]
+
+    def node(self, name: str) -> NodeEntry:
+        return next(n for n in self.nodes if n.name == name)
+
+
+def resolve_graph_path(name: str) -> Path:
+    """A path as given, or the name of a file in ``config/`` (with or without ``.yaml``)."""
+    p = Path(name)
+    if p.exists() or p.suffix in (".yaml", ".yml") or os.sep in name:
+        return p
+    return CONFIG_DIR / f"{name}.yaml"
+
+
+def _yaml_error(path: Path, exc: yaml.YAMLError) -> str:
+    mark = getattr(exc, "problem_mark", None)
+    where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    return f"{path}: {where}invalid YAML ({problem})"
+
+
+def parse_override(text: str) -> tuple[str, str, Any]:
+    """``node.param:=value`` (value parsed as YAML) → (node, param, value)."""
+    if ":=" not in text or "." not in text.split(":=", 1)[0]:
+        raise GraphError([f"override {text!r}: expected NODE.PARAM:=VALUE, e.g. spv.mode:=depth"])
+    key, raw = text.split(":=", 1)
+    node, param = key.split(".", 1)
+    try:
+        value = yaml.safe_load(raw) if raw != "" else ""
+    except yaml.YAMLError:
+        value = raw
+    return node, param, value
+
+
+def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
+    """Read and validate a graph file; raise :class:`GraphError` listing every mistake."""
+    path = Path(path)
+    if not path.is_file():
+        raise GraphError([f"{path}: no such graph file" + (" (it is a directory)" if path.is_dir() else "")])
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise GraphError([_yaml_error(path, exc)]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise GraphError([f"{path}: cannot read ({exc})"]) from None
+    if not isinstance(doc, dict):
+        raise GraphError([f"{path}: expected a mapping with a 'launch' section and node parameter sections"])
+    errors: list[str] = []
+    launch = doc.get("launch")
+    if not isinstance(launch, dict) or not isinstance(launch.get("nodes"), list) or not launch["nodes"]:
+        raise GraphError([f"{path}: launch.nodes: expected a non-empty list of nodes, e.g. [{{kind: spv}}]"])
+    unknown = set(launch) - {"nodes", "env", "description"}
+    for k in sorted(unknown):
+        errors.append(f"{path}: launch.{k}: unknown key; allowed: nodes, env, description")
+    env = _string_map(launch.get("env", {}), f"{path}: launch.env", errors)
+
+    nodes: list[NodeEntry] = []
+    seen: set[str] = set()
+    for i, item in enumerate(launch["nodes"]):
+        where = f"{path}: launch.nodes[{i}]"
+        if isinstance(item, str):
+            item = {"kind": item}
+        if not isinstance(item, dict):
+            errors.append(f"{where}: expected a mapping like {{kind: spv}}, got {item!r}")
+            continue
+        for k in sorted(set(item) - _NODE_KEYS):
+            errors.append(f"{where}.{k}: unknown key; allowed: {', '.join(sorted(_NODE_KEYS))}")
+        kind = item.get("kind")
+        if kind not in NODES:
+            errors.append(f"{where}.kind: unknown node kind {kind!r}; available: {', '.join(sorted(NODES))}")
+            continue
+        name = item.get("name", kind)
+        if not isinstance(name, str) or not _NAME_RE.match(name):
+            errors.append(f"{where}.name: {name!r} is not a valid node name (letters, digits, underscores)")
+            continue
+        if name in seen:
+            errors.append(f"{where}.name: node name {name!r} used twice")
+            continue
+        seen.add(name)
+        restart = item.get("restart", False)
+        if not isinstance(restart, bool):
+            errors.append(f"{where}.restart: expected true or false, got {restart!r}")
+            restart = False
+        nodes.append(NodeEntry(kind, name, restart, {}, _string_map(item.get("env", {}), f"{where}.env", errors)))
+
+    by_name = {n.name: n for n in nodes}
+    sections: dict[str, dict[str, Any]] = {}
+    global_params: dict[str, Any] = {}
+    for key, section in doc.items():
+        if key == "launch":
+            continue
+        where = f"{path}: {key}"
+        if not isinstance(section, dict) or set(section) != {"ros__parameters"} or not isinstance(section["ros__parameters"], dict):
+            errors.append(f"{where}: expected '{key}: {{ros__parameters: {{...}}}}'")
+            continue
+        if key in ("/**", "**"):
+            global_params = section["ros__parameters"]
+            continue
+        name = key.lstrip("/")
+        if name not in by_name:
+            errors.append(f"{where}: no node named {name!r} in launch.nodes (nodes: {', '.join(by_name) or 'none'})")
+            continue
+        sections[name] = dict(section["ros__parameters"])
+
+    for ov in overrides or []:
+        try:
+            node, param, value = parse_override(ov)
+        except GraphError as exc:
+            errors.extend(exc.errors)
+            continue
+        if node not in by_name:
+            errors.append(f"override {ov!r}: no node named {node!r} (nodes: {', '.join(by_name)})")
+            continue
+        sections.setdefault(node, {})[param] = value
+
+    for node in nodes:
+        schema = schema_for(node.kind)
+        for gk, gv in global_params.items():
+            if gk in GLOBAL_PARAMS:
+                node.params[gk] = gv
+            elif gk in schema:
+                node.params.setdefault(gk, gv)
+        values = dict(sections.get(node.name, {}))
+        builtin = {k: values.pop(k) for k in list(values) if k in GLOBAL_PARAMS}
+        good, bad = schema.validate(values)
+        for key, message in bad:
+            errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
+        for k, v in builtin.items():
+            if not isinstance(v, bool):
+                errors.append(f"{path}: {node.name}.ros__parameters.{k}: expected true or false, got {v!r}")
+        node.params.update(builtin)
+        node.params.update(good)
+    for gk in global_params:
+        if gk not in GLOBAL_PARAMS and not any(gk in schema_for(n.kind) for n in nodes):
+            errors.append(f"{path}: /**.ros__parameters.{gk}: no node in this graph has this parameter")
+    if errors:
+        raise GraphError(errors)
+    return Graph(path=path, nodes=nodes, env=env)
+
+
+def _string_map(value: Any, where: str, errors: list[str]) -> dict[str, str]:
+    if value in (None, {}):
+        return {}
+    if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+        errors.append(f"{where}: expected a mapping of NAME: value")
+        return {}
+    return {k: str(v) for k, v in value.items()}
+
+
+def node_params_file(node: NodeEntry) -> str:
+    """The ROS 2 parameter file text for one node (only its own section)."""
+    return yaml.safe_dump({node.name: {"ros__parameters": node.params}}, sort_keys=True)

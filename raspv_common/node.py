@@ -1,0 +1,161 @@
+"""Base class and entry point for every RASPV node.
+
+``RaspvNode`` declares the node's parameters from its schema (type, range, description as
+ROS descriptors), checks every run-time change with the same schema, and hands validated
+changes to :meth:`RaspvNode.on_parameters`, which applies them atomically or refuses with a
+reason. ``run_node`` is the ``main()`` of every node module: it initialises rclpy, spins,
+turns configuration mistakes into one clear line, and shuts down cleanly on SIGINT/SIGTERM.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any, Callable, Sequence
+
+import rclpy
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                SetParametersResult)
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from std_msgs.msg import Header
+
+from raspv_common.conversions import seconds_to_stamp
+from raspv_common.params import Param, ParamSchema
+
+
+class ConfigurationError(Exception):
+    """A configuration the node cannot run with; reported as one line, exit code 2."""
+
+
+def _plain(value: Any) -> Any:
+    """rclpy returns arrays as array.array/tuples; the schema works with lists."""
+    if isinstance(value, (tuple, bytes)) or type(value).__name__ == "array":
+        return list(value)
+    return value
+
+
+def _descriptor(p: Param) -> ParameterDescriptor:
+    desc = p.description + (f" [{p.unit}]" if p.unit else "")
+    constraints = f"allowed: {p.allowed()}"
+    d = ParameterDescriptor(name=p.name, description=desc, additional_constraints=constraints,
+                            read_only=not p.dynamic)
+    if p.kind is float and p.minimum is not None and p.maximum is not None:
+        d.floating_point_range = [FloatingPointRange(from_value=float(p.minimum), to_value=float(p.maximum), step=0.0)]
+    elif p.kind is int and p.minimum is not None and p.maximum is not None:
+        d.integer_range = [IntegerRange(from_value=int(p.minimum), to_value=int(p.maximum), step=0)]
+    return d
+
+
+class RaspvNode(Node):
+    """A node whose parameters come from a :class:`Param` list.
+
+    Subclasses read ``self.params`` (current values by name) and override
+    :meth:`on_parameters` to apply run-time changes.
+    """
+
+    def __init__(self, name: str, params: Sequence[Param], **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self._schema = ParamSchema.of(params)
+        self._throttle: dict[str, float] = {}
+        for p in self._schema:
+            default = list(p.default) if isinstance(p.default, tuple) else p.default
+            descriptor = _descriptor(p)
+            # ROS infers an empty list as a byte array; let the schema check the elements instead.
+            descriptor.dynamic_typing = isinstance(default, list) and not default
+            self.declare_parameter(p.name, default, descriptor)
+        raw = {p.name: _plain(self.get_parameter(p.name).value) for p in self._schema}
+        values, errors = self._schema.validate(raw)
+        if errors:
+            raise ConfigurationError("; ".join(f"parameter '{k}': {m}" for k, m in errors))
+        self.params: dict[str, Any] = values
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+    # -- parameters -------------------------------------------------------------------------
+    def on_parameters(self, changes: dict[str, Any]) -> str | None:
+        """Apply validated ``changes`` (name → new value) atomically, or return a reason to
+        refuse them (the old values stay). ``self.params`` still holds the old values while
+        this runs and is updated after it returns None."""
+        return None
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        changes: dict[str, Any] = {}
+        for prm in parameters:
+            if prm.name == "use_sim_time":
+                continue
+            if prm.name not in self._schema:
+                return SetParametersResult(successful=False, reason=f"unknown parameter '{prm.name}'")
+            spec = self._schema[prm.name]
+            if not spec.dynamic:
+                return SetParametersResult(successful=False, reason=f"'{prm.name}' cannot change while the node runs")
+            try:
+                changes[prm.name] = spec.coerce(_plain(prm.value))
+            except ValueError as exc:
+                return SetParametersResult(successful=False, reason=f"'{prm.name}': {exc}")
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            reason = self.on_parameters(changes)
+        except Exception as exc:  # a failure to apply must not kill the node nor half-apply
+            self.get_logger().error(f"applying {changes} failed: {exc!r}")
+            reason = f"could not apply: {exc}"
+        if reason:
+            return SetParametersResult(successful=False, reason=reason)
+        self.params.update(changes)
+        return SetParametersResult(successful=True)
+
+    # -- helpers ----------------------------------------------------------------------------
+    def warn_throttled(self, key: str, message: str, period_s: float = 5.0) -> None:
+        """Log ``message`` as a warning at most once per ``period_s`` for a given ``key``."""
+        now = time.monotonic()
+        if now - self._throttle.get(key, -1e9) >= period_s:
+            self._throttle[key] = now
+            self.get_logger().warning(message)
+
+    def header(self, frame_id: str, stamp_s: float | None = None) -> Header:
+        """A header stamped now (node clock) or at ``stamp_s`` seconds."""
+        stamp = self.get_clock().now().to_msg() if stamp_s is None else seconds_to_stamp(stamp_s)
+        return Header(stamp=stamp, frame_id=frame_id)
+
+    def close(self) -> None:
+        """Release resources (flush logs, close files); called once at shutdown."""
+
+
+def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None = None,
+             threads: int = 1) -> None:
+    """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error."""
+    args = list(sys.argv if argv is None else argv)
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = node_factory()
+        executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ConfigurationError as exc:
+        print(f"[{_node_label(node, args)}] configuration error: {exc}", file=sys.stderr, flush=True)
+        code = 2
+    except (rclpy.exceptions.ParameterException, rclpy.exceptions.InvalidParameterTypeException) as exc:
+        print(f"[{_node_label(node, args)}] parameter error: {exc}", file=sys.stderr, flush=True)
+        code = 2
+    finally:
+        if node is not None:
+            try:
+                node.close()
+            finally:
+                node.destroy_node()
+        rclpy.try_shutdown()
+    if code:
+        sys.exit(code)
+
+
+def _node_label(node: Node | None, args: Sequence[str]) -> str:
+    if node is not None:
+        return node.get_name()
+    for a in args:
+        if a.startswith("__node:="):
+            return a.split(":=", 1)[1]
+    return args[0] if args else "node"
