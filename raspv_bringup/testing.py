@@ -1,0 +1,253 @@
+"""Test harness: private ROS domains, graphs in subprocesses, and a probe node.
+
+- :func:`claim_private_domain` picks a ``ROS_DOMAIN_ID`` no other test session on this machine
+  holds (a lock file per id), so parallel runs never cross-talk.
+- :class:`RunningGraph` runs ``raspv launch`` on a graph (dict or file) in a subprocess,
+  captures its output and stops it with SIGINT, checking that no process is left behind.
+- :class:`Probe` is an rclpy node spinning in a background thread of the test process: it
+  waits for messages (never fixed sleeps), collects them, publishes, and sets parameters.
+"""
+from __future__ import annotations
+
+import fcntl
+import os
+import random
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import psutil
+import yaml
+
+from raspv_bringup.middleware import middleware_env
+
+_domain_lock = None
+
+
+def claim_private_domain(low: int = 30, high: int = 160) -> int:
+    """Lock and return an unused ROS domain id; also sets it (and the middleware defaults) in
+    ``os.environ`` so rclpy in this process and every child uses it."""
+    global _domain_lock
+    ids = list(range(low, high))
+    random.Random(os.getpid() ^ int(time.time() * 1000)).shuffle(ids)
+    lock_dir = Path(tempfile.gettempdir()) / "raspv-domains"
+    lock_dir.mkdir(exist_ok=True)
+    for i in ids:
+        f = open(lock_dir / f"{i}.lock", "w")
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            continue
+        _domain_lock = f
+        os.environ.update(middleware_env(os.environ, {"ROS_DOMAIN_ID": str(i)}))
+        return i
+    raise RuntimeError("no free ROS domain id for tests")
+
+
+class GraphStopped(AssertionError):
+    """The graph ended while the test was waiting for it."""
+
+
+class RunningGraph:
+    """``raspv launch`` of a graph in a subprocess (its own process group)."""
+
+    def __init__(self, spec: dict | str | Path, workdir: Path, overrides: list[str] | None = None,
+                 env: dict[str, str] | None = None) -> None:
+        if isinstance(spec, dict):
+            path = workdir / f"graph-{int(time.time() * 1000) % 10**8}.yaml"
+            path.write_text(yaml.safe_dump(spec, sort_keys=False))
+        else:
+            path = Path(spec)
+        self.path = path
+        self.log_path = workdir / (path.stem + ".log")
+        self._log = open(self.log_path, "w")
+        cmd = [sys.executable, "-m", "raspv_bringup.cli", "launch", str(path), *(overrides or [])]
+        self.proc = subprocess.Popen(cmd, stdout=self._log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                     env={**os.environ, **(env or {})}, start_new_session=True)
+        self._children: set[int] = set()
+        self.returncode: int | None = None
+
+    @property
+    def output(self) -> str:
+        if not self._log.closed:
+            self._log.flush()
+        return self.log_path.read_text(errors="replace")
+
+    def _remember_children(self) -> None:
+        try:
+            self._children |= {c.pid for c in psutil.Process(self.proc.pid).children(recursive=True)}
+        except psutil.Error:
+            pass
+
+    def running(self) -> bool:
+        self._remember_children()
+        return self.proc.poll() is None
+
+    def wait_for_output(self, pattern: str, timeout: float = 30.0) -> re.Match:
+        """Wait until the launcher's output matches ``pattern`` (regex)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            m = re.search(pattern, self.output)
+            if m:
+                return m
+            if not self.running():
+                raise GraphStopped(f"graph ended (code {self.proc.returncode}) before {pattern!r}:\n{self.output[-3000:]}")
+            time.sleep(0.1)
+        raise TimeoutError(f"{pattern!r} not in the graph output after {timeout:.0f} s:\n{self.output[-3000:]}")
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 30.0) -> int:
+        """Signal the launcher, wait for it, and check every node process is gone."""
+        if self.returncode is not None:
+            return self.returncode
+        self._remember_children()
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait()
+                raise AssertionError(f"launcher did not stop within {timeout:.0f} s:\n{self.output[-3000:]}")
+        self.returncode = self.proc.returncode
+        self._log.close()
+        leftovers = [p for p in self._children if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+        for pid in leftovers:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        if leftovers:
+            raise AssertionError(f"processes left behind after the graph stopped: {leftovers}")
+        return self.returncode
+
+
+class Collector:
+    """Messages received on one topic (thread-safe)."""
+
+    def __init__(self) -> None:
+        self.messages: list[Any] = []
+        self.stamps: list[float] = []
+        self._cond = threading.Condition()
+
+    def _add(self, msg: Any) -> None:
+        with self._cond:
+            self.messages.append(msg)
+            self.stamps.append(time.monotonic())
+            self._cond.notify_all()
+
+    def wait(self, count: int = 1, timeout: float = 30.0, predicate: Callable[[Any], bool] | None = None) -> list[Any]:
+        """Block until ``count`` messages (matching ``predicate``) arrived; return them."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while True:
+                got = [m for m in self.messages if predicate is None or predicate(m)]
+                if len(got) >= count:
+                    return got[:count]
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError(f"{len(got)} of {count} messages after {timeout:.0f} s")
+                self._cond.wait(min(left, 0.2))
+
+
+class Probe:
+    """An rclpy node spinning in a background thread of the test process."""
+
+    def __init__(self, name: str = "test_probe") -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, args=["probe", "--ros-args", "--disable-rosout-logs"])
+        self.node = rclpy.create_node(f"{name}_{os.getpid()}", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # context shut down
+            pass
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self._rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=3.0)
+
+    def subscribe(self, topic: str, msg_type: type, qos: Any = None) -> Collector:
+        """Start collecting ``topic``; by default with a QoS that matches any publisher
+        (best-effort reliability is compatible with reliable publishers)."""
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        if qos is None:
+            qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+        col = Collector()
+        col.subscription = self.node.create_subscription(msg_type, topic, col._add, qos)
+        return col
+
+    def unsubscribe(self, col: Collector) -> None:
+        self.node.destroy_subscription(col.subscription)
+
+    def wait_for_message(self, topic: str, msg_type: type, timeout: float = 30.0, qos: Any = None,
+                         predicate: Callable[[Any], bool] | None = None) -> Any:
+        col = self.subscribe(topic, msg_type, qos)
+        try:
+            return col.wait(1, timeout, predicate)[0]
+        finally:
+            self.unsubscribe(col)
+
+    def collect(self, topic: str, msg_type: type, count: int, timeout: float = 30.0, qos: Any = None) -> list[Any]:
+        col = self.subscribe(topic, msg_type, qos)
+        try:
+            return col.wait(count, timeout)
+        finally:
+            self.unsubscribe(col)
+
+    def publisher(self, topic: str, msg_type: type, qos: Any = None, wait_for_subscribers: int = 0,
+                  timeout: float = 30.0):
+        """A publisher; optionally wait until ``wait_for_subscribers`` subscriptions matched."""
+        from raspv_common.qos import COMMAND_QOS
+
+        pub = self.node.create_publisher(msg_type, topic, qos or COMMAND_QOS)
+        deadline = time.monotonic() + timeout
+        while pub.get_subscription_count() < wait_for_subscribers:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no subscriber matched {topic} within {timeout:.0f} s")
+            time.sleep(0.05)
+        return pub
+
+    def _param_call(self, target: str, call: Callable, timeout: float) -> Any:
+        from raspv_common.param_client import ParamClient
+
+        client = ParamClient(self.node, target)
+        done = threading.Event()
+        result: list[Any] = []
+        try:
+            deadline = time.monotonic() + timeout
+            while not (client._set.service_is_ready() and client._get.service_is_ready()):
+                if time.monotonic() > deadline:
+                    raise TimeoutError(f"parameter services of {target} not available")
+                time.sleep(0.05)
+            call(client, lambda r: (result.append(r), done.set()))
+            if not done.wait(timeout):
+                raise TimeoutError(f"{target} did not answer a parameter request within {timeout:.0f} s")
+            return result[0]
+        finally:
+            client.destroy()
+
+    def set_params(self, target: str, values: dict[str, Any], timeout: float = 15.0) -> list[tuple[str, bool, str]]:
+        """Set parameters of node ``target``; returns [(name, successful, reason)]."""
+        return self._param_call(target, lambda c, done: c.set_async(values, done), timeout)
+
+    def get_params(self, target: str, names: list[str], timeout: float = 15.0) -> dict[str, Any]:
+        return self._param_call(target, lambda c, done: c.get_async(names, done), timeout)

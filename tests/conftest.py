@@ -1,0 +1,55 @@
+"""Fixtures shared by the whole suite (harness code in raspv_bringup/testing.py).
+
+- ``ros_domain``: this session's private ROS_DOMAIN_ID (claimed before anything imports rclpy).
+- ``probe``: an rclpy node spinning in the test process (wait_for_message, collect, publish,
+  set_params).
+- ``graph``: start a graph (dict or YAML path) with ``raspv launch`` in a subprocess; stopped with
+  SIGINT at the end of the test, failing it if any process is left behind.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from raspv_bringup.testing import Probe, RunningGraph, claim_private_domain
+
+DOMAIN_ID = claim_private_domain()
+DATA_DIR = Path(__file__).parent / "data"
+
+
+@pytest.fixture(scope="session")
+def ros_domain() -> int:
+    return DOMAIN_ID
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    return DATA_DIR
+
+
+@pytest.fixture(scope="session")
+def probe(ros_domain):
+    p = Probe()
+    yield p
+    p.close()
+
+
+@pytest.fixture
+def graph(tmp_path, ros_domain):
+    started: list[RunningGraph] = []
+
+    def start(spec, overrides=None, env=None) -> RunningGraph:
+        g = RunningGraph(spec, tmp_path, overrides, env)
+        started.append(g)
+        return g
+
+    yield start
+    errors = []
+    for g in started:
+        try:
+            g.stop()
+        except AssertionError as exc:
+            errors.append(str(exc))
+    if errors:
+        pytest.fail("\n".join(errors))

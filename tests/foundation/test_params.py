@@ -1,0 +1,45 @@
+import pytest
+
+from raspv_common.params import Param, ParamSchema
+
+SCHEMA = ParamSchema.of([
+    Param("fov", 20.0, "field of view", minimum=1.0, maximum=180.0),
+    Param("n", 1000, "phosphenes", minimum=1, maximum=10000),
+    Param("grid", "hexagonal", "lattice", choices=("hexagonal", "rectangular")),
+    Param("temporal", True, "temporal model"),
+    Param("overlays", ["stairs"], "overlays"),
+    Param("tags", [], "free tags"),
+])
+
+
+def test_valid_values_are_coerced():
+    good, errors = SCHEMA.validate({"fov": 30, "n": 5, "grid": "rectangular", "temporal": False, "tags": ["a"]})
+    assert errors == []
+    assert good["fov"] == 30.0 and isinstance(good["fov"], float)
+    assert good["tags"] == ["a"]
+
+
+@pytest.mark.parametrize("key,value,fragment", [
+    ("fov", 500.0, "out of range"),
+    ("fov", "wide", "expected float"),
+    ("fov", float("nan"), "finite"),
+    ("n", 2.5, "expected int"),
+    ("n", True, "expected int"),
+    ("grid", "triangular", "one of 'hexagonal', 'rectangular'"),
+    ("temporal", "yes", "expected bool"),
+    ("overlays", "stairs", "expected list of string"),
+    ("overlays", [1], "expected string"),
+    ("colour", 1, "unknown parameter; this node has: fov, grid, n, overlays, tags, temporal"),
+])
+def test_bad_values_name_what_is_allowed(key, value, fragment):
+    good, errors = SCHEMA.validate({key: value})
+    assert key not in good
+    assert len(errors) == 1 and errors[0][0] == key
+    assert fragment in errors[0][1]
+
+
+def test_schema_rejects_duplicates_and_bad_defaults():
+    with pytest.raises(ValueError):
+        ParamSchema.of([Param("a", 1, ""), Param("a", 2, "")])
+    with pytest.raises(ValueError):
+        ParamSchema.of([Param("a", 5, "", maximum=3)])
