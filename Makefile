@@ -1,0 +1,20 @@
+# RASPV-py. The two commands a user needs: `make demo` and `make test` (both install first).
+VENV ?= .venv
+PYTEST_ARGS ?=
+
+.PHONY: install demo test test-fast clean
+
+install:
+	@tools/install.sh
+
+demo: install
+	@$(VENV)/bin/raspv demo
+
+test: install
+	@$(VENV)/bin/python -m pytest $(PYTEST_ARGS)
+
+test-fast: install
+	@$(VENV)/bin/python -m pytest -m "not integration and not browser and not slow" $(PYTEST_ARGS)
+
+clean:
+	rm -rf $(VENV) build

