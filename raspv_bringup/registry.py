@@ -22,6 +22,8 @@ class NodeSpec:
 NODES: dict[str, NodeSpec] = {
     "synthetic": NodeSpec("raspv_camera.synthetic_node", "raspv_camera.synthetic_params:PARAMS",
                           "RGB-D source rendering an analytic room (no simulator; tests, quick demos)"),
+    "planner": NodeSpec("raspv_nav.planner_node", "raspv_nav.planner_params:PARAMS",
+                        "navigation assistant: global path on the building map, obstacles from depth, DWA hint"),
 }
 
 

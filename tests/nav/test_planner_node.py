@@ -1,0 +1,57 @@
+"""The planner node in a graph with the synthetic RGB-D source."""
+import numpy as np
+import pytest
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import OccupancyGrid as OccupancyGridMsg
+from nav_msgs.msg import Path
+
+from raspv_camera.synthetic_scene import SyntheticRoom
+from raspv_common import topics
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_common.qos import LATCHED_QOS
+from raspv_nav.occupancy import OCCUPIED, OccupancyGrid, save_map
+
+pytestmark = pytest.mark.integration
+
+
+def room_map(room: SyntheticRoom, res: float = 0.05) -> OccupancyGrid:
+    """Floor plan of the synthetic room: walls around, boxes occupied."""
+    w, h = room.size
+    cells = np.zeros((int(round(h / res)), int(round(w / res))), np.int8)
+    cells[:2], cells[-2:], cells[:, :2], cells[:, -2:] = OCCUPIED, OCCUPIED, OCCUPIED, OCCUPIED
+    grid = OccupancyGrid(cells, res, (-w / 2, -h / 2))
+    for box in room.boxes:
+        lo = grid.world_to_cell([box.lo[:2]])[0]
+        hi = grid.world_to_cell([box.hi[:2]])[0]
+        cells[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1] = OCCUPIED
+    return grid
+
+
+def test_planner_publishes_a_path_to_the_goal_around_obstacles(graph, probe, tmp_path):
+    room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
+    save_map(room_map(room), tmp_path / "room.yaml")
+    goal = [3.2, 1.5]   # behind the low cabinet at x ∈ [2.3, 3.1], y ∈ [-0.6, 0.6]
+    graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}]},
+           "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
+           "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": goal}}})
+    costmap = probe.wait_for_message("/nav/global_costmap", OccupancyGridMsg, timeout=60, qos=LATCHED_QOS)
+    assert (costmap.info.width, costmap.info.height) == (160, 120)
+    path = probe.wait_for_message(topics.NAV_PATH, Path, timeout=60)
+    pts = np.array([[p.pose.position.x, p.pose.position.y] for p in path.poses])
+    start = room.pose_at(0.0)[:2, 3]
+    assert np.linalg.norm(pts[0] - start) < 0.1 and np.linalg.norm(pts[-1] - goal) < 1e-6
+    dense = np.concatenate([np.linspace(a, b, 40) for a, b in zip(pts, pts[1:])])
+    for box in room.boxes:   # never inside a box grown by the robot radius
+        inside = ((dense[:, 0] > box.lo[0] - 0.3) & (dense[:, 0] < box.hi[0] + 0.3)
+                  & (dense[:, 1] > box.lo[1] - 0.3) & (dense[:, 1] < box.hi[1] + 0.3))
+        assert not inside.any()
+    hint = probe.wait_for_message("/nav/cmd_vel_hint", Twist)
+    assert hint.linear.x >= 0.0
+
+
+def test_planner_without_map_fails_with_one_line(graph):
+    g = graph({"launch": {"nodes": [{"kind": "planner"}]}, "planner": {"ros__parameters": {"goal": [1.0, 1.0]}}})
+    g.wait_for_output(r"configuration error: parameter 'map' is empty")
+    g.proc.wait(timeout=30)
+    assert g.stop() == 1
+    assert "Traceback" not in g.output
