@@ -1,0 +1,164 @@
+"""The virtual world in one object: a world file built in its own PyBullet client (DIRECT mode),
+the BlindBot avatar, walking people, the RGB-D camera, collision events and goals (no rclpy).
+
+    sim = Simulation("apartment")
+    report = sim.step(0.05, linear=0.5, angular=0.0)   # s, m/s, rad/s
+    frame = sim.render()                               # colour, depth [m], class ids, pose
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_sim.avatar import Avatar, AvatarConfig
+from raspv_sim.collision_events import CollisionEvent, CollisionMonitor, Touch
+from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
+from raspv_sim.native_output import captured_native_output
+from raspv_sim.sim_camera import RendererInfo, SimCamera, load_renderer
+from raspv_sim.world_builder import BuiltWorld, build_world
+from raspv_sim.world_spec import WorldSpec, load_world
+
+DROP_NAME, DROP_CLASS = "edge", "drop"   # pseudo-object reported when the avatar stops at a drop
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Camera (px, deg, m), renderer ("auto", "egl" or "tiny"), avatar, optional depth realism."""
+
+    width: int = 320
+    height: int = 240
+    hfov_deg: float = 60.0
+    near: float = 0.05
+    far: float = 8.0
+    renderer: str = "auto"
+    avatar: AvatarConfig = field(default_factory=AvatarConfig)
+    depth_sensor: DepthSensorConfig | None = None
+    collision_debounce: float = 0.5
+    seed: int = 0
+
+    def intrinsics(self) -> CameraIntrinsics:
+        if not 0 < self.hfov_deg < 180:
+            raise ValueError(f"horizontal field of view must be in (0, 180) degrees, got {self.hfov_deg}")
+        return CameraIntrinsics.from_hfov(self.width, self.height, self.hfov_deg)
+
+
+@dataclass
+class SimFrame:
+    """One camera frame at sim time ``t`` [s]: ``rgb`` (H, W, 3) uint8, ``depth`` (H, W) float32 m
+    (NaN: no reading), ``labels`` (H, W) uint8 class ids, ``world_from_camera`` 4×4 (optical frame)."""
+
+    t: float
+    rgb: np.ndarray
+    depth: np.ndarray
+    labels: np.ndarray
+    world_from_camera: np.ndarray
+    intrinsics: CameraIntrinsics
+
+
+@dataclass
+class StepReport:
+    t: float
+    distance: float                                    # m moved by the base in this step
+    collisions: list[CollisionEvent] = field(default_factory=list)
+    goals_reached: list[str] = field(default_factory=list)
+
+
+class Simulation:
+    def __init__(self, world: WorldSpec | str | Path, config: SimConfig | None = None):
+        self.config = config or SimConfig()
+        self.spec = world if isinstance(world, WorldSpec) else load_world(world)
+        intrinsics = self.config.intrinsics()
+        with captured_native_output():
+            self.client = BulletClient(connection_mode=pybullet.DIRECT)
+        try:
+            # the EGL plugin only draws bodies created after it is loaded
+            self.renderer: RendererInfo = load_renderer(self.client, self.config.renderer)
+            self.world: BuiltWorld = build_world(self.client, self.spec)
+            s = self.spec
+            self.avatar = Avatar(self.world, self.config.avatar, s.spawn_position[0], s.spawn_position[1],
+                                 math.radians(s.spawn_yaw))
+            self.camera = SimCamera(self.client, intrinsics, self.config.near, self.config.far, self.renderer,
+                                    s.light_direction)
+        except BaseException:
+            self.close()
+            raise
+        self.monitor = CollisionMonitor(self.config.collision_debounce)
+        self.depth_model = (DepthSensorModel(self.config.depth_sensor, intrinsics.fx, self.config.seed)
+                            if self.config.depth_sensor is not None else None)
+        self.t = 0.0
+        self.linear = 0.0
+        self.angular = 0.0
+        self.goals_reached: dict[str, float] = {}
+
+    @property
+    def intrinsics(self) -> CameraIntrinsics:
+        return self.camera.intrinsics
+
+    @property
+    def classes(self) -> tuple[str, ...]:
+        return self.spec.classes
+
+    def set_head(self, q) -> None:
+        """Head orientation relative to the base, quaternion (x, y, z, w)."""
+        self.avatar.set_head(q)
+
+    def step(self, dt: float, linear: float = 0.0, angular: float = 0.0) -> StepReport:
+        """Advance ``dt`` s: people walk, the avatar drives (m/s, rad/s, clamped to its limits)."""
+        if not (dt >= 0 and math.isfinite(dt)):
+            raise ValueError(f"time step must be a non-negative number of seconds, got {dt}")
+        self.t += dt
+        self.world.update_people(self.t)
+        a = self.avatar.config
+        self.linear = max(-a.max_linear, min(a.max_linear, float(linear)))
+        self.angular = max(-a.max_angular, min(a.max_angular, float(angular)))
+        result = self.avatar.move(self.linear, self.angular, dt)
+        touches = []
+        for contact in result.contacts:
+            info = self.world.info(contact.uid)
+            if info is not None:
+                touches.append(Touch(info.name, info.cls, contact.position, contact.normal))
+        if result.drop:
+            yaw = self.avatar.yaw
+            sign = 1.0 if self.linear >= 0 else -1.0
+            touches.append(Touch(DROP_NAME, DROP_CLASS, (self.avatar.x, self.avatar.y, self.avatar.z),
+                                 (-sign * math.cos(yaw), -sign * math.sin(yaw), 0.0)))
+        report = StepReport(self.t, result.distance, self.monitor.update(self.t, touches, abs(self.linear)))
+        for goal in self.spec.goals:
+            if goal.name not in self.goals_reached and math.hypot(self.avatar.x - goal.position[0],
+                                                                   self.avatar.y - goal.position[1]) <= goal.radius:
+                self.goals_reached[goal.name] = self.t
+                report.goals_reached.append(goal.name)
+        return report
+
+    def render(self) -> SimFrame:
+        """The camera's view now (with the depth-sensor model applied when configured)."""
+        T = self.avatar.world_from_camera()
+        raw = self.camera.render(T)
+        body = np.clip(raw.body + 1, 0, len(self.world.class_lut) - 1)
+        labels = self.world.class_lut[body]
+        depth = raw.depth
+        if self.depth_model is not None:
+            depth = self.depth_model.apply(depth, raw.rgb, self.world.specular_lut[body])
+        return SimFrame(self.t, raw.rgb, depth, labels, T, self.camera.intrinsics)
+
+    def close(self) -> None:
+        client = getattr(self, "client", None)
+        if client is not None:
+            with captured_native_output():
+                try:
+                    client.disconnect()
+                except pybullet.error:
+                    pass
+            self.client = None
+
+    def __enter__(self) -> "Simulation":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
