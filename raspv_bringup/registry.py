@@ -24,6 +24,8 @@ NODES: dict[str, NodeSpec] = {
                           "RGB-D source rendering an analytic room (no simulator; tests, quick demos)"),
     "planner": NodeSpec("raspv_nav.planner_node", "raspv_nav.planner_params:PARAMS",
                         "navigation assistant: global path on the building map, obstacles from depth, DWA hint"),
+    "sim": NodeSpec("raspv_sim.sim_node", "raspv_sim.sim_params:PARAMS", "virtual world (PyBullet): avatar, RGB-D camera, ground truth, collisions, logs"),
+    "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
 }
 
 

@@ -16,9 +16,10 @@ import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_sim.avatar import Avatar, AvatarConfig
+from raspv_sim.avatar import Avatar, AvatarConfig, head_angles
 from raspv_sim.collision_events import CollisionEvent, CollisionMonitor, Touch
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
+from raspv_sim.experiment_log import ExperimentLog, TrajectorySample
 from raspv_sim.native_output import captured_native_output
 from raspv_sim.sim_camera import RendererInfo, SimCamera, load_renderer
 from raspv_sim.world_builder import BuiltWorld, build_world
@@ -95,6 +96,33 @@ class Simulation:
         self.linear = 0.0
         self.angular = 0.0
         self.goals_reached: dict[str, float] = {}
+        self.log: ExperimentLog | None = None
+
+    def start_log(self, log_dir: str | Path, rate: float = 10.0, extra: dict | None = None) -> ExperimentLog:
+        """Log this run from now on (trajectory at ``rate`` Hz, collisions, goals); see
+        :mod:`raspv_sim.experiment_log`. Closed by :meth:`close`."""
+        if self.log is not None:
+            self.log.close()
+        s, c = self.spec, self.config
+        meta = {"world_file": str(s.source) if s.source else None, "description": s.description,
+                "classes": list(s.classes), "spawn": {"position": list(s.spawn_position), "yaw_deg": s.spawn_yaw},
+                "goals": [{"name": g.name, "position": list(g.position), "radius": g.radius} for g in s.goals],
+                "camera": {"width": c.width, "height": c.height, "hfov_deg": c.hfov_deg, "near": c.near, "far": c.far,
+                           "renderer": self.renderer.name},
+                "avatar": {k: getattr(c.avatar, k) for k in c.avatar.__dataclass_fields__},
+                "depth_sensor": None if c.depth_sensor is None else
+                {k: getattr(c.depth_sensor, k) for k in c.depth_sensor.__dataclass_fields__},
+                **(extra or {})}
+        self.log = ExperimentLog(log_dir, s.name, meta, rate)
+        self.log.sample(self.trajectory_sample(), force=True)
+        return self.log
+
+    def trajectory_sample(self) -> TrajectorySample:
+        a = self.avatar
+        roll, pitch, yaw = head_angles(a.head)
+        cam = a.world_from_camera()[:3, 3]
+        return TrajectorySample(self.t, a.x, a.y, a.z, a.yaw, roll, pitch, yaw, float(cam[0]), float(cam[1]),
+                                float(cam[2]), self.linear, self.angular, a.path_length)
 
     @property
     def intrinsics(self) -> CameraIntrinsics:
@@ -134,6 +162,12 @@ class Simulation:
                                                                    self.avatar.y - goal.position[1]) <= goal.radius:
                 self.goals_reached[goal.name] = self.t
                 report.goals_reached.append(goal.name)
+        if self.log is not None:
+            for event in report.collisions:
+                self.log.collision(event)
+            for name in report.goals_reached:
+                self.log.goal(name, self.t)
+            self.log.sample(self.trajectory_sample())
         return report
 
     def render(self) -> SimFrame:
@@ -147,7 +181,27 @@ class Simulation:
             depth = self.depth_model.apply(depth, raw.rgb, self.world.specular_lut[body])
         return SimFrame(self.t, raw.rgb, depth, labels, T, self.camera.intrinsics)
 
+    def finish_log(self, plot: bool = True) -> tuple[dict, Path | None]:
+        """End the log: last trajectory sample, ``summary.json`` and (``plot``) the top-down
+        ``trajectory.png`` over the world's occupancy map. Returns (summary, png path)."""
+        log = self.log
+        if log is None:
+            raise RuntimeError("no log was started")
+        log.sample(self.trajectory_sample(), force=True)
+        summary = log.close()
+        self.log = None
+        png = None
+        if plot:
+            from raspv_sim.occupancy_export import world_occupancy
+            from raspv_sim.trajectory_plot import plot_run
+
+            png = plot_run(log.dir, world_occupancy(self.world))
+        return summary, png
+
     def close(self) -> None:
+        """End the log (if any) and release the PyBullet client."""
+        if getattr(self, "log", None) is not None and getattr(self, "client", None) is not None:
+            self.finish_log()
         client = getattr(self, "client", None)
         if client is not None:
             with captured_native_output():

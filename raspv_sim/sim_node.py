@@ -1,0 +1,199 @@
+"""`sim` node: the virtual world as an RGB-D source (same topics as a real camera) plus ground truth.
+
+Publishes colour (rgb8), depth (32FC1 m), camera info, ``/camera/pose`` (world ← camera optical),
+``/odom`` (base in world), ``/sim/labels`` (mono8 class ids), ``/sim/classes`` (latched
+std_msgs/String, JSON ``{"world": name, "classes": [name of id 0, id 1, ...]}``) and
+``/sim/collisions`` (raspv_msgs/CollisionEvent). Subscribes ``/cmd_vel`` (Twist, base frame) and
+``/head/orientation`` (QuaternionStamped, head relative to the base; identity looks ahead).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import time
+
+from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, Vector3
+from nav_msgs.msg import Odometry
+from raspv_msgs.msg import CollisionEvent as CollisionEventMsg
+from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
+
+from raspv_common import topics
+from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose
+from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_sim.avatar import AvatarConfig
+from raspv_sim.collision_events import CollisionEvent
+from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
+from raspv_sim.sim_params import PARAMS
+from raspv_sim.simulator import SimConfig, Simulation
+from raspv_sim.world_spec import WorldFileError
+
+SIM_CLASSES = "/sim/classes"   # std_msgs/String JSON class table, latched
+MAX_STEP_S = 0.2               # a stalled tick never moves the avatar more than this much time
+
+_AVATAR_PARAMS = {"eye_height": "eye_height", "max_linear": "max_linear", "max_angular": "max_angular",
+                  "slide": "slide"}
+
+
+def depth_sensor_config(p: dict) -> DepthSensorConfig | None:
+    if not p["depth_noise"]:
+        return None
+    return DepthSensorConfig(noise_at_1m=p["depth_noise_at_1m"], subpixel=p["depth_subpixel"],
+                             edge_jump=p["depth_edge_jump"], dark_dropout=p["depth_dark_dropout"],
+                             specular_dropout=p["depth_specular_dropout"], max_range=p["depth_max_range"])
+
+
+def sim_config(p: dict) -> SimConfig:
+    avatar = AvatarConfig(body_radius=p["body_radius"], eye_height=p["eye_height"], max_linear=p["max_linear"],
+                          max_angular=p["max_angular"], max_step=p["max_step"], slide=p["slide"])
+    return SimConfig(width=p["width"], height=p["height"], hfov_deg=p["hfov_deg"], near=p["near"], far=p["far"],
+                     renderer=p["renderer"], avatar=avatar, depth_sensor=depth_sensor_config(p),
+                     collision_debounce=p["collision_debounce"], seed=p["seed"])
+
+
+class SimNode(RaspvNode):
+    def __init__(self) -> None:
+        super().__init__("sim", PARAMS)
+        p = self.params
+        if not p["far"] > p["near"]:
+            raise ConfigurationError(f"'far' ({p['far']} m) must be larger than 'near' ({p['near']} m)")
+        try:
+            config = sim_config(p)
+            self.sim = Simulation(p["world"], config)
+        except WorldFileError as exc:
+            raise ConfigurationError(str(exc)) from None
+        except (ValueError, RuntimeError) as exc:
+            raise ConfigurationError(str(exc)) from None
+        if p["log_dir"]:
+            try:
+                log = self.sim.start_log(p["log_dir"], p["log_rate"])
+            except OSError as exc:
+                self.sim.close()
+                raise ConfigurationError(f"cannot write logs to '{p['log_dir']}': {exc.strerror}") from None
+            self.get_logger().info(f"logging the run to {log.dir}")
+        self.camera_info = intrinsics_to_camera_info(self.sim.intrinsics)
+        self.pub_color = self.create_publisher(Image, topics.COLOR, SENSOR_QOS)
+        self.pub_depth = self.create_publisher(Image, topics.DEPTH, SENSOR_QOS)
+        self.pub_info = self.create_publisher(CameraInfo, topics.CAMERA_INFO, SENSOR_QOS)
+        self.pub_pose = self.create_publisher(PoseStamped, topics.CAMERA_POSE, SENSOR_QOS)
+        self.pub_odom = self.create_publisher(Odometry, topics.ODOM, SENSOR_QOS)
+        self.pub_labels = self.create_publisher(Image, topics.SIM_LABELS, SENSOR_QOS)
+        self.pub_collisions = self.create_publisher(CollisionEventMsg, topics.SIM_COLLISIONS, EVENT_QOS)
+        self.pub_classes = self.create_publisher(String, SIM_CLASSES, LATCHED_QOS)
+        self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
+        self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS)
+        self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)
+        self.cmd = (0.0, 0.0)
+        self.cmd_time = -math.inf
+        self.last_tick: float | None = None
+        self.timings = {"step": 0.0, "render": 0.0, "publish": 0.0, "frames": 0}
+        self.create_timer(1.0 / p["rate"], self.tick)
+        s = self.sim.spec
+        self.get_logger().info(
+            f"world '{s.name}' ({s.source}), renderer: {self.sim.renderer.description}; camera {p['width']}x{p['height']} "
+            f"{p['hfov_deg']:g}° at {p['rate']:g} Hz, eye height {p['eye_height']} m; depth noise "
+            f"{'on' if p['depth_noise'] else 'off'}")
+
+    # -- inputs ---------------------------------------------------------------------------------
+    def on_cmd_vel(self, msg: Twist) -> None:
+        v, w = msg.linear.x, msg.angular.z
+        if not (math.isfinite(v) and math.isfinite(w)):
+            self.warn_throttled("cmd", f"ignoring /cmd_vel with non-finite values (linear.x={v}, angular.z={w})")
+            return
+        self.cmd = (float(v), float(w))
+        self.cmd_time = time.monotonic()
+
+    def on_head(self, msg: QuaternionStamped) -> None:
+        q = msg.quaternion
+        try:
+            self.sim.set_head((q.x, q.y, q.z, q.w))
+        except ValueError as exc:
+            self.warn_throttled("head", f"ignoring /head/orientation: {exc}")
+
+    # -- parameters -----------------------------------------------------------------------------
+    def on_parameters(self, changes: dict) -> str | None:
+        merged = {**self.params, **changes}
+        avatar_changes = {field: changes[key] for key, field in _AVATAR_PARAMS.items() if key in changes}
+        try:
+            new_avatar = dataclasses.replace(self.sim.avatar.config, **avatar_changes) if avatar_changes else None
+            depth = depth_sensor_config(merged) if any(k.startswith("depth_") for k in changes) else False
+        except ValueError as exc:
+            return str(exc)
+        if new_avatar is not None:
+            self.sim.avatar.config = new_avatar
+        if depth is not False:
+            self.sim.depth_model = (DepthSensorModel(depth, self.sim.intrinsics.fx, merged["seed"])
+                                    if depth is not None else None)
+        if "collision_debounce" in changes:
+            self.sim.monitor.debounce_s = changes["collision_debounce"]
+        return None
+
+    # -- the loop -------------------------------------------------------------------------------
+    def tick(self) -> None:
+        t0 = time.monotonic()
+        dt = 0.0 if self.last_tick is None else min(t0 - self.last_tick, MAX_STEP_S)
+        self.last_tick = t0
+        timeout = self.params["cmd_timeout"]
+        v, w = self.cmd if (timeout == 0 or t0 - self.cmd_time <= timeout) else (0.0, 0.0)
+        report = self.sim.step(dt, v, w)
+        t1 = time.monotonic()
+        frame = self.sim.render()
+        t2 = time.monotonic()
+        header = self.header(self.params["frame_id"])
+        self.camera_info.header = header
+        self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
+        self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))
+        self.pub_info.publish(self.camera_info)
+        if self.params["publish_labels"]:
+            self.pub_labels.publish(array_to_image(frame.labels, "mono8", header))
+        world_header = self.header("world")
+        world_header.stamp = header.stamp
+        self.pub_pose.publish(PoseStamped(header=world_header, pose=matrix_to_pose(frame.world_from_camera)))
+        self.pub_odom.publish(self.odometry(world_header))
+        for event in report.collisions:
+            self.pub_collisions.publish(self.collision_msg(event, world_header))
+            self.get_logger().info(f"collision #{event.count} with {event.cls} '{event.name}' at {event.speed:.2f} m/s")
+        for name in report.goals_reached:
+            self.get_logger().info(f"goal '{name}' reached at t = {report.t:.1f} s")
+        t3 = time.monotonic()
+        for key, value in (("step", t1 - t0), ("render", t2 - t1), ("publish", t3 - t2)):
+            self.timings[key] += value
+        self.timings["frames"] += 1
+
+    def odometry(self, header) -> Odometry:
+        a = self.sim.avatar
+        msg = Odometry(header=header, child_frame_id="base")
+        msg.pose.pose = matrix_to_pose(a.world_from_base())
+        msg.twist.twist.linear.x = self.sim.linear
+        msg.twist.twist.angular.z = self.sim.angular
+        return msg
+
+    @staticmethod
+    def collision_msg(e: CollisionEvent, header) -> CollisionEventMsg:
+        return CollisionEventMsg(header=header, other_name=e.name, other_class=e.cls,
+                                 position=Point(x=e.position[0], y=e.position[1], z=e.position[2]),
+                                 normal=Vector3(x=e.normal[0], y=e.normal[1], z=e.normal[2]),
+                                 speed=float(e.speed), count=int(e.count))
+
+    def close(self) -> None:
+        sim = getattr(self, "sim", None)
+        if sim is None:
+            return
+        if sim.log is not None:
+            log_dir = sim.log.dir
+            summary, png = sim.finish_log()
+            self.get_logger().info(f"run logged in {log_dir}: {summary['duration_s']:.1f} s, "
+                                   f"{summary['path_length_m']:.1f} m, {summary['collisions']} collisions, "
+                                   f"goals {list(summary['goals_reached'])}; plot {png}")
+        sim.close()
+        self.sim = None
+
+
+def main(argv=None) -> None:
+    run_node(SimNode, argv)
+
+
+if __name__ == "__main__":
+    main()
