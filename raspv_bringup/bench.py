@@ -8,6 +8,7 @@ import argparse
 import importlib
 
 BENCHES: dict[str, str] = {
+    "sim": "raspv_sim.bench",
 }
 
 

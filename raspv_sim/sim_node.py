@@ -178,15 +178,21 @@ class SimNode(RaspvNode):
                                  speed=float(e.speed), count=int(e.count))
 
     def close(self) -> None:
+        # rclpy's context may already be shut down here: report with print, not the ROS logger
         sim = getattr(self, "sim", None)
         if sim is None:
             return
+        n = self.timings["frames"]
+        if n:
+            print(f"sim: {n} frames; mean step {1e3 * self.timings['step'] / n:.1f} ms, render "
+                  f"{1e3 * self.timings['render'] / n:.1f} ms, publish {1e3 * self.timings['publish'] / n:.1f} ms",
+                  flush=True)
         if sim.log is not None:
             log_dir = sim.log.dir
             summary, png = sim.finish_log()
-            self.get_logger().info(f"run logged in {log_dir}: {summary['duration_s']:.1f} s, "
-                                   f"{summary['path_length_m']:.1f} m, {summary['collisions']} collisions, "
-                                   f"goals {list(summary['goals_reached'])}; plot {png}")
+            print(f"sim: run logged in {log_dir}: {summary['duration_s']:.1f} s, {summary['path_length_m']:.1f} m, "
+                  f"{summary['collisions']} collisions, goals reached {list(summary['goals_reached'])}; plot {png}",
+                  flush=True)
         sim.close()
         self.sim = None
 

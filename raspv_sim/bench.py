@@ -1,0 +1,171 @@
+"""Virtual world speed: sim step + render + publish, and the rate a subscriber receives.
+
+Part 1 times the core (no ROS) while the avatar drives through the world: physics/avatar step,
+render (colour + depth + labels) and building the three image messages. Part 2 runs the real
+``sim`` node in a graph (optionally with the other nodes of ``--graph FILE``, whose own sim node is
+replaced) on a private ROS domain, drives it with /cmd_vel, and measures from a subscriber in
+another process the achieved colour rate, frame intervals and latency (stamp → receipt).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--world", default="apartment", help="world name or file (default apartment)")
+    parser.add_argument("--size", default="320x240", help="camera resolution WxH (default 320x240)")
+    parser.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto")
+    parser.add_argument("--rate", type=float, default=20.0, help="node rate asked for [Hz] (default 20)")
+    parser.add_argument("--frames", type=int, default=200, help="frames timed in part 1 (default 200)")
+    parser.add_argument("--seconds", type=float, default=15.0, help="measurement time of part 2 [s] (default 15)")
+    parser.add_argument("--depth-noise", action="store_true", help="with the depth-sensor model on")
+    parser.add_argument("--graph", metavar="FILE", help="also run the other nodes of this graph file during part 2")
+    parser.add_argument("--core-only", action="store_true", help="skip part 2 (no ROS)")
+
+
+def _stats(values: list[float]) -> str:
+    if not values:
+        return "n/a"
+    v = sorted(values)
+    p95 = v[min(len(v) - 1, int(round(0.95 * (len(v) - 1))))]
+    return f"median {statistics.median(v):6.1f}  p95 {p95:6.1f}  max {v[-1]:6.1f}"
+
+
+def _size(text: str) -> tuple[int, int]:
+    w, h = (int(v) for v in text.lower().split("x"))
+    return w, h
+
+
+def core_bench(args) -> dict:
+    import numpy as np
+
+    from raspv_sim.depth_sensor import DepthSensorConfig
+    from raspv_sim.simulator import SimConfig, Simulation
+
+    width, height = _size(args.size)
+    config = SimConfig(width=width, height=height, renderer=args.renderer,
+                       depth_sensor=DepthSensorConfig() if args.depth_noise else None)
+    step, render, convert = [], [], []
+    try:
+        from raspv_common.conversions import array_to_image
+    except ImportError:  # no ROS message packages: time the byte copy the conversion does
+        array_to_image = None
+    with Simulation(args.world, config) as sim:
+        renderer = sim.renderer.description
+        for i in range(args.frames):
+            t0 = time.perf_counter()
+            sim.step(0.05, 0.8, 0.5 * math.sin(i / 15))
+            t1 = time.perf_counter()
+            frame = sim.render()
+            t2 = time.perf_counter()
+            if array_to_image is not None:
+                array_to_image(frame.rgb, "rgb8")
+                array_to_image(frame.depth, "32FC1")
+                array_to_image(frame.labels, "mono8")
+            else:
+                for a in (frame.rgb, frame.depth, frame.labels):
+                    np.ascontiguousarray(a).tobytes()
+            t3 = time.perf_counter()
+            step.append(1e3 * (t1 - t0))
+            render.append(1e3 * (t2 - t1))
+            convert.append(1e3 * (t3 - t2))
+        collisions = sim.monitor.count
+    total = [a + b + c for a, b, c in zip(step, render, convert)]
+    print(f"part 1 — core, {args.world} at {width}x{height}, {args.frames} frames, renderer {renderer}"
+          f"{', depth noise on' if args.depth_noise else ''} ({collisions} collisions on the way)")
+    print(f"  step (people + avatar)   [ms] {_stats(step)}")
+    print(f"  render (RGB-D + labels)  [ms] {_stats(render)}")
+    print(f"  image messages           [ms] {_stats(convert)}")
+    print(f"  total                    [ms] {_stats(total)}  → {1e3 / statistics.median(total):.0f} fps possible")
+    return {"total_ms": statistics.median(total)}
+
+
+def node_bench(args) -> int:
+    import yaml
+    from geometry_msgs.msg import Twist
+    from sensor_msgs.msg import Image
+
+    from raspv_bringup.testing import Probe, RunningGraph, claim_private_domain
+    from raspv_common import topics
+    from raspv_common.conversions import stamp_to_seconds
+
+    domain = claim_private_domain()
+    width, height = _size(args.size)
+    graph: dict = {"launch": {"nodes": [{"kind": "sim", "name": "sim"}]}}
+    others = []
+    if args.graph:
+        extra = yaml.safe_load(Path(args.graph).read_text()) or {}
+        for node in (extra.get("launch") or {}).get("nodes", []):
+            if node.get("kind") == "sim":
+                continue
+            name = node.get("name", node.get("kind"))
+            graph["launch"]["nodes"].append(node)
+            others.append(name)
+            if name in extra:
+                graph[name] = extra[name]
+        if (extra.get("launch") or {}).get("env"):
+            graph["launch"]["env"] = extra["launch"]["env"]
+    graph["sim"] = {"ros__parameters": {"world": args.world, "width": width, "height": height, "rate": args.rate,
+                                        "renderer": args.renderer, "depth_noise": bool(args.depth_noise),
+                                        "cmd_timeout": 1.0}}
+    workdir = Path(tempfile.mkdtemp(prefix="raspv-bench-sim-"))
+    g = RunningGraph(graph, workdir)
+    probe = Probe("bench_sim")
+    arrivals: list[float] = []
+    latencies: list[float] = []
+    try:
+        g.wait_for_output(r"renderer: ", timeout=60)
+        col = probe.subscribe(topics.COLOR, Image)
+        col.wait(3, timeout=60)
+        pub = probe.publisher(topics.CMD_VEL, Twist, wait_for_subscribers=1)
+        col.messages.clear()
+        col.stamps.clear()
+        start = time.monotonic()
+        k = 0
+        while time.monotonic() - start < args.seconds:
+            twist = Twist()
+            twist.linear.x, twist.angular.z = 0.8, 0.5 * math.sin(k / 15)
+            pub.publish(twist)
+            k += 1
+            time.sleep(0.1)
+        with col._cond:
+            msgs, stamps = list(col.messages), list(col.stamps)
+        elapsed = time.monotonic() - start
+        wall_now = time.time() - time.monotonic()
+        for m, t in zip(msgs, stamps):
+            latencies.append(1e3 * ((t + wall_now) - stamp_to_seconds(m.header.stamp)))
+        arrivals = [1e3 * (b - a) for a, b in zip(stamps, stamps[1:])]
+        probe.unsubscribe(col)
+    finally:
+        probe.close()
+        g.stop()
+    m = re.search(r"sim: (\d+) frames; mean step ([\d.]+) ms, render ([\d.]+) ms, publish ([\d.]+) ms", g.output)
+    rate = len(msgs) / elapsed if elapsed > 0 else 0.0
+    print(f"part 2 — sim node in a graph (ROS domain {domain}{', with ' + ', '.join(others) if others else ''}), "
+          f"asked {args.rate:g} Hz, {args.seconds:g} s while driving")
+    if m:
+        print(f"  node: {m.group(1)} frames, mean step {m.group(2)} ms, render {m.group(3)} ms, publish {m.group(4)} ms")
+    print(f"  received colour frames: {len(msgs)} → {rate:.1f} Hz achieved")
+    print(f"  frame interval           [ms] {_stats(arrivals)}")
+    print(f"  latency stamp → receipt  [ms] {_stats(latencies)}")
+    ok = rate >= 0.95 * args.rate
+    print(f"  {'OK' if ok else 'BELOW TARGET'}: {rate:.1f} Hz {'≥' if ok else '<'} 95 % of {args.rate:g} Hz")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        _size(args.size)
+    except ValueError:
+        print(f"raspv bench sim: --size must be WxH, e.g. 320x240, got {args.size!r}")
+        return 2
+    core_bench(args)
+    if not args.core_only:
+        return node_bench(args)
+    return 0
