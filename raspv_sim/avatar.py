@@ -2,7 +2,8 @@
 
 Base frame B: x forward, y left, z up, origin on the ground between the feet. The base is a
 differential drive (linear v along x, angular ω about z) that goes exactly where commanded
-unless its human-sized collision capsule would enter an object: every move is cut into short
+unless its human-sized collision body (a vertical cylinder from just above the
+highest walkable step to the top of the head) would enter an object: every move is cut into short
 sub-steps, each checked with PyBullet distance queries against the bodies nearby, so it cannot
 pass through walls; when blocked it slides along the obstacle (optional) or stops in contact.
 It follows the ground up and down steps no higher than ``max_step`` (stairs) and refuses to
@@ -42,9 +43,8 @@ class AvatarConfig:
     def __post_init__(self) -> None:
         if self.body_radius <= 0 or self.max_linear < 0 or self.max_angular < 0 or self.max_step < 0:
             raise ValueError("body radius must be positive and limits non-negative")
-        if self.body_height <= self.max_step + GROUND_PROBE_GAP + 2 * self.body_radius:
-            raise ValueError(f"body height {self.body_height} m is too short for a {self.body_radius} m radius "
-                             f"above a {self.max_step} m step")
+        if self.body_height <= self.max_step + GROUND_PROBE_GAP + 0.5:
+            raise ValueError(f"body height {self.body_height} m is too short above a {self.max_step} m step")
         if not 0 < self.eye_height - self.neck_to_eye[2] < self.body_height + 0.5:
             raise ValueError(f"eye height {self.eye_height} m does not fit the body")
 
@@ -99,16 +99,17 @@ def head_angles(q) -> tuple[float, float, float]:
 
 
 class Avatar:
-    """The avatar's body in a built world (one capsule body in the same PyBullet client)."""
+    """The avatar's body in a built world (one cylinder body in the same PyBullet client)."""
 
     def __init__(self, world: BuiltWorld, config: AvatarConfig, x: float, y: float, yaw: float):
-        self.world, self.config = world, config
+        self.world, self._config = world, config
         self.c = world.client
         c = config
-        self._bottom = c.max_step + GROUND_PROBE_GAP          # capsule bottom above the feet
+        self._bottom = c.max_step + GROUND_PROBE_GAP          # body bottom above the feet
         self._centre = (self._bottom + c.body_height) / 2
-        length = c.body_height - self._bottom - 2 * c.body_radius
-        shape = self.c.createCollisionShape(pybullet.GEOM_CAPSULE, radius=c.body_radius, height=length)
+        # a vertical cylinder: a flat bottom (feet) meets a step edge at once, unlike a capsule's round end
+        shape = self.c.createCollisionShape(pybullet.GEOM_CYLINDER, radius=c.body_radius,
+                                            height=c.body_height - self._bottom)
         self.uid = self.c.createMultiBody(0, shape, -1, basePosition=[x, y, self._centre])
         self.c.setCollisionFilterGroupMask(self.uid, -1, 0, 0)   # invisible to rays and the world
         world.finish(extra_uids=(self.uid,))
@@ -119,6 +120,18 @@ class Avatar:
         self.head = (0.0, 0.0, 0.0, 1.0)
         self.path_length = 0.0
         self._place(self.x, self.y, self.z)
+
+    @property
+    def config(self) -> AvatarConfig:
+        return self._config
+
+    @config.setter
+    def config(self, new: AvatarConfig) -> None:
+        """Limits, eye height and sliding may change; the body's shape is fixed at creation."""
+        old = self._config
+        if (new.body_radius, new.body_height, new.max_step) != (old.body_radius, old.body_height, old.max_step):
+            raise ValueError("body_radius, body_height and max_step are fixed once the avatar exists")
+        self._config = new
 
     # -- poses ----------------------------------------------------------------------------------
     def world_from_base(self) -> np.ndarray:
@@ -248,7 +261,7 @@ class Avatar:
         self.c.resetBasePositionAndOrientation(self.uid, [x, y, z + self._centre], [0.0, 0.0, 0.0, 1.0])
 
     def _closest(self, x: float, y: float, z: float, margin: float) -> list[Contact]:
-        """Nearest point of every body within ``margin`` m of the capsule standing at (x, y, z)."""
+        """Nearest point of every body within ``margin`` m of the body standing at (x, y, z)."""
         self._place(x, y, z)
         r = self.config.body_radius + margin
         lo = [x - r, y - r, z + self._bottom - margin]

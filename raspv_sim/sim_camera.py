@@ -119,8 +119,11 @@ class SimCamera:
         self.renderer = renderer or load_renderer(client)
         self.light_direction = list(light_direction)
         self._proj = projection_matrix(intrinsics, near, self.clip_far, self.renderer.name)
-        with captured_native_output():  # the EGL plugin reports its GL vendor on the first render
-            self.render(np.eye(4))
+        if self.renderer.name == "egl":
+            with captured_native_output():  # the plugin reports its GL vendor on the first render
+                sky = np.eye(4)
+                sky[2, 3] = 1e4           # far above everything, looking up: nothing to draw
+                self.client.getCameraImage(8, 8, view_matrix(sky), self._proj, renderer=self.renderer.flag)
 
     def render(self, world_from_camera: np.ndarray) -> RawFrame:
         W, H = self.intrinsics.width, self.intrinsics.height

@@ -435,9 +435,9 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
     walls: list[WallSpec] = []
     for i, raw in enumerate(top.sequence("rooms")):
         e = _Entry(raw, f"rooms[{i}]", src)
-        e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "open", "class"})
         rname = e.string("name", f"room{i}")
         e.where = f"rooms[{i}] ('{rname}')"
+        e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "open", "class"})
         rlo, rhi = e.vector("from", (2,)), e.vector("to", (2,))
         if not (rhi[0] > rlo[0] and rhi[1] > rlo[1]):
             e.fail(f"'to' {list(rhi)} must be above and right of 'from' {list(rlo)} (x and y larger)")
@@ -468,9 +468,9 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
 
     for i, raw in enumerate(top.sequence("walls")):
         e = _Entry(raw, f"walls[{i}]", src)
-        e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "class"})
         wname = e.string("name", f"wall{i}")
         e.where = f"walls[{i}] ('{wname}')"
+        e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "class"})
         a, b = e.vector("from", (2,)), e.vector("to", (2,))
         length = math.hypot(b[0] - a[0], b[1] - a[1])
         if length < 1e-6:
@@ -485,10 +485,10 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
         e = _Entry(raw, f"furniture[{i}]", src)
         kind = e.string("type", choices=FURNITURE_TYPES)
         e.where = f"furniture[{i}] ({kind})"
-        e.keys({"type", "name", "position", "yaw", "size", "color", "class", "specular", "open", "shelves"})
         fname = e.string("name", f"{kind}{i}")
         if "name" in e.data:
             e.where = f"furniture[{i}] ({kind} '{fname}')"
+        e.keys({"type", "name", "position", "yaw", "size", "color", "class", "specular", "open", "shelves"})
         pos = e.vector("position", (2, 3))
         size = e.vector("size", (3,), FURNITURE_DEFAULT_SIZE[kind], positive=True)
         claim(fname, e.where, e)
@@ -505,9 +505,9 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
     models: list[ModelSpec] = []
     for i, raw in enumerate(top.sequence("models")):
         e = _Entry(raw, f"models[{i}]", src)
-        e.keys({"name", "file", "position", "yaw", "scale", "color", "class", "collision", "up", "specular"})
         mname = e.string("name", f"model{i}")
         e.where = f"models[{i}] ('{mname}')"
+        e.keys({"name", "file", "position", "yaw", "scale", "color", "class", "collision", "up", "specular"})
         file_text = e.string("file")
         fpath = _resolve_model_file(file_text, base_dir)
         kind = fpath.suffix.lower().lstrip(".")
@@ -526,9 +526,9 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
     stairs: list[StairSpec] = []
     for i, raw in enumerate(top.sequence("stairs")):
         e = _Entry(raw, f"stairs[{i}]", src)
-        e.keys({"name", "direction", "position", "yaw", "steps", "riser", "tread", "width", "landing", "color", "class"})
         sname = e.string("name", f"stairs{i}")
         e.where = f"stairs[{i}] ('{sname}')"
+        e.keys({"name", "direction", "position", "yaw", "steps", "riser", "tread", "width", "landing", "color", "class"})
         direction = e.string("direction", choices=("up", "down"))
         riser = e.number("riser", 0.17, positive=True, maximum=0.5)
         steps = e.integer("steps", 8, minimum=1, maximum=100)
@@ -543,9 +543,9 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
     people: list[PersonSpec] = []
     for i, raw in enumerate(top.sequence("people")):
         e = _Entry(raw, f"people[{i}]", src)
-        e.keys({"name", "model", "waypoints", "speed", "height", "color", "class", "phase"})
         pname = e.string("name", f"person{i}")
         e.where = f"people[{i}] ('{pname}')"
+        e.keys({"name", "model", "waypoints", "speed", "height", "color", "class", "phase"})
         wps = e.get("waypoints")
         if not (isinstance(wps, list) and len(wps) >= 2 and all(
                 isinstance(w, (list, tuple)) and len(w) == 2 and all(_is_number(x) for x in w) for w in wps)):
