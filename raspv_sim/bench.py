@@ -2,8 +2,8 @@
 
 Part 1 times the core (no ROS) while the avatar drives through the world: physics/avatar step,
 render (colour + depth + labels) and building the three image messages. Part 2 runs the real
-``sim`` node in a graph (optionally with the other nodes of ``--graph FILE``, whose own sim node is
-replaced) on a private ROS domain, drives it with /cmd_vel, and measures from a subscriber in
+``sim`` node in a graph (optionally with the other nodes of ``--graph FILE``, whose own RGB-D
+source is replaced) on a private ROS domain, drives it with /cmd_vel, and measures from a subscriber in
 another process the achieved colour rate, frame intervals and latency (stamp → receipt).
 """
 from __future__ import annotations
@@ -16,6 +16,8 @@ import tempfile
 import time
 from pathlib import Path
 
+SOURCE_KINDS = {"sim", "synthetic", "camera", "replay"}
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="apartment", help="world name or file (default apartment)")
@@ -25,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=200, help="frames timed in part 1 (default 200)")
     parser.add_argument("--seconds", type=float, default=15.0, help="measurement time of part 2 [s] (default 15)")
     parser.add_argument("--depth-noise", action="store_true", help="with the depth-sensor model on")
-    parser.add_argument("--graph", metavar="FILE", help="also run the other nodes of this graph file during part 2")
+    parser.add_argument("--graph", metavar="FILE", help="also run this graph's other nodes during part 2 (its RGB-D source is replaced)")
     parser.add_argument("--core-only", action="store_true", help="skip part 2 (no ROS)")
 
 
@@ -102,7 +104,7 @@ def node_bench(args) -> int:
     if args.graph:
         extra = yaml.safe_load(Path(args.graph).read_text()) or {}
         for node in (extra.get("launch") or {}).get("nodes", []):
-            if node.get("kind") == "sim":
+            if node.get("kind") in SOURCE_KINDS:     # the benchmarked sim node is the source
                 continue
             name = node.get("name", node.get("kind"))
             graph["launch"]["nodes"].append(node)
