@@ -16,32 +16,21 @@ RGB = tuple[float, float, float]
 @dataclass(frozen=True)
 class Part:
     """One solid. ``shape`` is "box" (``size`` = full extents x, y, z), "cylinder" / "capsule"
-    (``size`` = (diameter, diameter, length along local z)) or "sphere" (``size`` = diameter ×3).
-    ``position`` is its centre in W [m]; ``yaw`` [rad] turns it about z; ``tilt`` [rad] turns it
-    about its own x axis first (for leaning parts)."""
+    (``size`` = (diameter, diameter, length along z)) or "sphere" (``size`` = diameter ×3).
+    ``position`` is its centre in W [m]; ``yaw`` [rad] turns it about z."""
 
     shape: str
     size: tuple[float, float, float]
     position: tuple[float, float, float]
     color: RGB
     yaw: float = 0.0
-    tilt: float = 0.0
     collide: bool = True
     visible: bool = True
 
     @property
     def quaternion(self) -> tuple[float, float, float, float]:
-        """Orientation (x, y, z, w) = Rz(yaw)·Rx(tilt)."""
-        cy, sy = math.cos(self.yaw / 2), math.sin(self.yaw / 2)
-        cx, sx = math.cos(self.tilt / 2), math.sin(self.tilt / 2)
-        return (cy * sx, sy * sx, sy * cx, cy * cx)
-
-    def footprint(self) -> np.ndarray:
-        """Corners (4, 2) of the part's box footprint on the floor plane (W, m), ignoring tilt."""
-        hx, hy = self.size[0] / 2, self.size[1] / 2
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
-        return local @ np.array([[c, s], [-s, c]]) + np.array(self.position[:2])
+        """Orientation (x, y, z, w) about z."""
+        return (0.0, 0.0, math.sin(self.yaw / 2), math.cos(self.yaw / 2))
 
 
 class LocalFrame:

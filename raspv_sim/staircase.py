@@ -58,6 +58,3 @@ def floor_hole(spec: StairSpec) -> tuple[float, float, float, float] | None:
     x1, y1 = corners.max(axis=0)
     return float(x0), float(y0), float(x1), float(y1)
 
-
-def is_axis_aligned(yaw_deg: float) -> bool:
-    return abs((yaw_deg / 90.0) - round(yaw_deg / 90.0)) < 1e-9

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -204,15 +204,9 @@ class WorldSpec:
     spawn_yaw: float
     classes: tuple[str, ...]
     light_direction: Vec3 = (0.4, 0.25, 1.0)
-    wall_height: float = 2.5
-    extras: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def class_id(self, name: str) -> int:
         return self.classes.index(name)
-
-    @property
-    def object_names(self) -> list[str]:
-        return [o.name for group in (self.walls, self.furniture, self.models, self.stairs, self.people) for o in group]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -582,7 +576,7 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
         light.fail("'direction' must not be zero")
 
     return WorldSpec(name, path, description, floor, tuple(walls), tuple(furniture), tuple(models), tuple(stairs),
-                     tuple(people), tuple(goals), spawn, s.number("yaw", 0.0), tuple(classes), light_dir, wall_height)
+                     tuple(people), tuple(goals), spawn, s.number("yaw", 0.0), tuple(classes), light_dir)
 
 
 def _resolve_model_file(text: str, base_dir: Path) -> Path:

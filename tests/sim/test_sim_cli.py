@@ -7,7 +7,6 @@ import yaml
 
 from raspv_nav.occupancy import FREE, OCCUPIED, load_map
 from raspv_sim.sim_cli import main as sim_cli
-from raspv_sim.world_spec import load_world
 
 
 def cell(grid, x, y):
