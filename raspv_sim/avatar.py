@@ -166,6 +166,17 @@ class Avatar:
         self.x, self.y, self.yaw, self.z = float(x), float(y), float(yaw), ground if ground is not None else 0.0
         self._place(self.x, self.y, self.z)
 
+    def placement_problem(self) -> str | None:
+        """Why the avatar cannot stand where it is (no floor below, overlapping an object), or None."""
+        if self._ground(self.x, self.y, self.config.max_step) is None:
+            return "has no floor under it (within the step height of z = 0)"
+        overlaps = [k for k in self._closest(self.x, self.y, self.z, 0.0) if k.distance < -0.005]
+        self._place(self.x, self.y, self.z)
+        if overlaps:
+            info = self.world.bodies[min(overlaps, key=lambda k: k.distance).uid]
+            return f"overlaps {info.cls} '{info.name}' (its body is a {self.config.body_radius} m radius cylinder)"
+        return None
+
     # -- motion ---------------------------------------------------------------------------------
     def move(self, linear: float, angular: float, dt: float) -> MoveResult:
         """Integrate (v [m/s], ω [rad/s]) for ``dt`` s within the limits; returns what happened."""

@@ -25,6 +25,7 @@ from raspv_sim.world_builder import BuiltWorld
 
 BORDER = 0.5          # m of unknown cells around the floor
 RAY_BATCH = 16000     # PyBullet's limit for one rayTestBatch is 16384
+MAX_CELLS = 20_000_000
 
 
 def world_occupancy(world: BuiltWorld, resolution: float = 0.05, band: tuple[float, float] = (0.05, 1.9),
@@ -42,6 +43,9 @@ def world_occupancy(world: BuiltWorld, resolution: float = 0.05, band: tuple[flo
     rows = int(math.ceil((floor.hi[1] + BORDER - y0) / resolution))
     xs = x0 + (np.arange(cols) + 0.5) * resolution
     ys = y0 + (np.arange(rows) + 0.5) * resolution
+    if rows * cols > MAX_CELLS:
+        raise ValueError(f"a {cols}x{rows} map at {resolution} m per cell is too large (at most {MAX_CELLS} cells); "
+                         "use a coarser resolution")
     cells = np.full((rows, cols), UNKNOWN, np.int8)
     inside = ((ys[:, None] > floor.lo[1]) & (ys[:, None] < floor.hi[1]) & (xs[None, :] > floor.lo[0])
               & (xs[None, :] < floor.hi[0]))

@@ -46,8 +46,11 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         return {"check": _check, "map": _map, "render": _render, "plot": _plot}[args.sim_command](args)
-    except WorldFileError as exc:
+    except (WorldFileError, ValueError) as exc:
         print(f"raspv sim: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"raspv sim: {exc.filename or ''}: {exc.strerror}", file=sys.stderr)
         return 2
 
 
@@ -123,8 +126,12 @@ def _plot(args) -> int:
     if not meta_file.is_file():
         print(f"raspv sim plot: {run_dir} is not a run directory (no meta.json)", file=sys.stderr)
         return 2
-    meta = json.loads(meta_file.read_text())
-    world = meta.get("world_file") or meta.get("world")
+    try:
+        meta = json.loads(meta_file.read_text())
+        world = meta.get("world_file") or meta["world"]
+    except (json.JSONDecodeError, KeyError, AttributeError):
+        print(f"raspv sim plot: {meta_file} is not a run's meta.json (no world recorded)", file=sys.stderr)
+        return 2
     with Simulation(world, SimConfig(width=16, height=12, renderer="tiny")) as sim:
         grid = world_occupancy(sim.world)
     png = plot_run(run_dir, grid, args.output)

@@ -23,7 +23,7 @@ from raspv_sim.experiment_log import ExperimentLog, TrajectorySample
 from raspv_sim.native_output import captured_native_output
 from raspv_sim.sim_camera import RendererInfo, SimCamera, load_renderer
 from raspv_sim.world_builder import BuiltWorld, build_world
-from raspv_sim.world_spec import WorldSpec, load_world
+from raspv_sim.world_spec import WorldFileError, WorldSpec, display_path, load_world
 
 DROP_NAME, DROP_CLASS = "edge", "drop"   # pseudo-object reported when the avatar stops at a drop
 
@@ -84,6 +84,10 @@ class Simulation:
             s = self.spec
             self.avatar = Avatar(self.world, self.config.avatar, s.spawn_position[0], s.spawn_position[1],
                                  math.radians(s.spawn_yaw))
+            problem = self.avatar.placement_problem()
+            if problem:
+                src = display_path(s.source) if s.source else s.name
+                raise WorldFileError(f"{src}: spawn: the avatar at {list(s.spawn_position)} {problem}")
             self.camera = SimCamera(self.client, intrinsics, self.config.near, self.config.far, self.renderer,
                                     s.light_direction)
         except BaseException:

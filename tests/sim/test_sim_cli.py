@@ -65,3 +65,18 @@ def test_unknown_world_is_one_line(capsys):
     err = capsys.readouterr().err.strip()
     assert err == ("raspv sim: unknown world 'atlantis': shipped worlds are apartment, office, stairs, "
                    "or give the path of a YAML file")
+
+
+def test_bad_arguments_are_one_line(tmp_path, capsys):
+    assert sim_cli(["map", "apartment", "-o", str(tmp_path), "--resolution", "0"]) == 2
+    assert capsys.readouterr().err.strip() == "raspv sim: map resolution must be positive, got 0.0"
+    assert sim_cli(["map", "apartment", "-o", str(tmp_path), "--resolution", "0.0005"]) == 2
+    assert "too large" in capsys.readouterr().err
+    assert sim_cli(["render", "apartment", "-o", str(tmp_path / "no" / "such" / "dir.png"), "--size", "32x24"]) == 2
+    assert "No such file or directory" in capsys.readouterr().err
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "meta.json").write_text("{not json")
+    assert sim_cli(["plot", str(tmp_path / "run")]) == 2
+    assert "is not a run's meta.json" in capsys.readouterr().err
+    assert sim_cli(["plot", str(tmp_path)]) == 2
+    assert "is not a run directory (no meta.json)" in capsys.readouterr().err

@@ -154,3 +154,18 @@ def test_a_model_pybullet_cannot_load_fails_with_one_line(tmp_path):
         Simulation(f, SMALL)
     assert "models[0] ('thing'): PyBullet could not load" in str(info.value) and "\n" not in str(info.value)
 
+
+
+@pytest.mark.parametrize("spawn, problem", [([3.0, 2.0], "overlaps table 'desk'"),
+                                            ([5.0, 5.0], "has no floor under it")])
+def test_a_spawn_the_avatar_cannot_stand_on_is_one_line(tmp_path, spawn, problem):
+    data = copy.deepcopy(MINIMAL)
+    data["floor"]["to"] = [6, 6]
+    data["stairs"] = [{"direction": "down", "position": [5.0, 4.0], "yaw": 90, "steps": 6, "landing": 0.5}]
+    data["spawn"]["position"] = spawn
+    f = tmp_path / "w.yaml"
+    f.write_text(yaml.safe_dump(data))
+    with pytest.raises(WorldFileError) as info:
+        Simulation(f, SMALL)
+    assert str(info.value).endswith(f"spawn: the avatar at {spawn} {problem}" + (
+        " (its body is a 0.25 m radius cylinder)" if "overlaps" in problem else " (within the step height of z = 0)"))
