@@ -120,6 +120,13 @@ def test_head_orientation_turns_the_camera_pose_only(graph, probe):
     assert math.degrees(math.asin(-axis[2])) == pytest.approx(20.0, abs=0.01)     # looking 20° down
     odom = probe.wait_for_message(topics.ODOM, Odometry)
     assert odom.pose.pose.orientation.z == pytest.approx(0.0, abs=1e-9)        # the base did not turn
+    # run-time parameters: the eye height moves the camera; the body's shape cannot change
+    assert probe.set_params("sim", {"eye_height": 1.2}) == [("eye_height", True, "")]
+    pitch = math.radians(20)     # neck pivot 0.1 m below the eye; eye 8 cm ahead, 10 cm up, turned with the head
+    eye_z = 1.2 - 0.1 + 0.1 * math.cos(pitch) - 0.08 * math.sin(pitch)
+    probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, predicate=lambda m: abs(m.pose.position.z - eye_z) < 1e-6)
+    [(name, ok, reason)] = probe.set_params("sim", {"max_step": 0.1})
+    assert not ok and "read-only parameter: max_step" in reason
 
 
 def test_a_broken_world_is_a_one_line_configuration_error(graph, tmp_path):
