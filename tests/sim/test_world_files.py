@@ -132,14 +132,21 @@ def test_model_files_resolve_relative_to_the_world_and_to_pybullet_data(tmp_path
     data = copy.deepcopy(MINIMAL)
     data["models"] = [{"name": "lamp", "file": str(WORLDS_DIR / "meshes" / "floor_lamp.obj"), "class": "lamp",
                        "position": [5, 3]},
-                      {"name": "duck", "file": "pybullet_data:duck_vhacd.urdf", "class": "toy", "position": [4, 1]}]
+                      {"name": "duck", "file": "pybullet_data:duck_vhacd.urdf", "class": "toy", "position": [4, 1]},
+                      {"name": "rack", "file": "pybullet_data:kiva_shelf/model.sdf", "class": "shelf",
+                       "position": [1.5, 3.0], "yaw": 90, "scale": 0.5}]
     f = tmp_path / "w.yaml"
     f.write_text(yaml.safe_dump(data))
     spec = load_world(f)
     assert spec.classes[-2:] == ("lamp", "toy")
     with Simulation(spec, SMALL) as sim:
-        names = {b.name for b in sim.world.bodies.values()}
-    assert {"lamp", "duck"} <= names
+        bodies = {b.name: uid for uid, b in sim.world.bodies.items()}
+        assert {"lamp", "duck", "rack"} <= set(bodies)
+        lo, hi = sim.client.getAABB(bodies["lamp"])
+        assert (lo[2], hi[2]) == pytest.approx((0.0, 1.62), abs=0.02)       # the OBJ stands on the floor
+        rack = sim.client.getBasePositionAndOrientation(bodies["rack"])[0]
+        # the SDF's own model pose (0, 1 m) is kept relative to the placement: scaled 0.5, turned 90°
+        assert rack[:2] == pytest.approx((1.5 - 0.5, 3.0), abs=1e-6)
 
 
 def test_a_model_pybullet_cannot_load_fails_with_one_line(tmp_path):
