@@ -19,6 +19,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "param": ("raspv_bringup.param_cli", "get, set or list a running node's parameters"),
     "nodes": ("raspv_bringup.nodes_cli", "list the node kinds and their parameters"),
     "bench": ("raspv_bringup.bench", "benchmarks with figures and ratios against peers"),
+    "sim": ("raspv_sim.sim_cli", "world files and logged runs: check, map, render, plot"),
+    "teleop": ("raspv_bringup.teleop_cli", "drive the avatar and turn its head from this terminal"),
 }
 
 

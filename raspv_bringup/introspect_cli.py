@@ -9,6 +9,8 @@ from collections import deque
 
 import yaml
 
+from rclpy.executors import ExternalShutdownException
+
 from raspv_bringup.middleware import apply_middleware_defaults
 
 
@@ -108,7 +110,7 @@ def run_hz(args: argparse.Namespace) -> int:
                           flush=True)
                 if args.duration is not None and now - start >= args.duration:
                     break
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, ExternalShutdownException):
             pass
         return 0 if count[0] > 0 else 1
 
@@ -145,6 +147,6 @@ def run_echo(args: argparse.Namespace) -> int:
         try:
             while cli.rclpy.ok() and (limit is None or seen[0] < limit):
                 cli.rclpy.spin_once(cli.node, timeout_sec=0.1)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, ExternalShutdownException):
             pass
         return 0

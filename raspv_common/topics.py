@@ -10,6 +10,7 @@ CAMERA_POSE = "/camera/pose"                # geometry_msgs/PoseStamped, world <
 ODOM = "/odom"                              # nav_msgs/Odometry, base in world
 SIM_LABELS = "/sim/labels"                  # sensor_msgs/Image mono8, ground-truth class ids
 SIM_COLLISIONS = "/sim/collisions"          # raspv_msgs/CollisionEvent
+SIM_CLASSES = "/sim/classes"                # std_msgs/String JSON {id: class name}, latched
 
 # Commands to the avatar / camera head.
 CMD_VEL = "/cmd_vel"                        # geometry_msgs/Twist, base frame

@@ -42,15 +42,11 @@ class PlannerNode(RaspvNode):
     def __init__(self) -> None:
         super().__init__("planner", PARAMS)
         p = self.params
-        if not p["map"]:
-            raise ConfigurationError("parameter 'map' is empty: give the map_server YAML of the building")
-        if len(p["goal"]) != 2:
-            raise ConfigurationError(f"parameter 'goal' must be [x, y], got {p['goal']}")
-        try:
-            grid = load_map(Path(p["map"]))
-        except MapFormatError as exc:
-            raise ConfigurationError(str(exc)) from None
-        self.assistant = self._make_assistant(grid, p)
+        grid, self.world_goals = self._load_building(p)
+        goal = self._goal_position(p)
+        if isinstance(goal, str):
+            raise ConfigurationError(goal)
+        self.assistant = self._make_assistant(grid, p, goal)
         self.pose: tuple[float, float, float] | None = None
         self.velocity = (0.0, 0.0)
         self.odom_seen = False
@@ -67,12 +63,46 @@ class PlannerNode(RaspvNode):
         self._start_timers(p)
         self._goal_reached_logged = False
         self.publish_costmap(grid)
-        self.get_logger().info(f"map {p['map']} ({grid.shape[1]}x{grid.shape[0]} cells at {grid.resolution} m), goal {p['goal']}")
+        self.get_logger().info(f"building map from {p['map'] or p['world']} ({grid.shape[1]}x{grid.shape[0]} cells at "
+                               f"{grid.resolution} m), goal {p['goal_name'] or ''} {np.round(goal, 2).tolist()}")
 
     @staticmethod
-    def _make_assistant(grid, p: dict) -> NavigationAssistant:
+    def _load_building(p: dict):
+        """The building map and the named goals (empty for a map file)."""
+        if bool(p["map"]) == bool(p["world"]):
+            raise ConfigurationError("give exactly one of 'map' (map_server YAML) or 'world' (simulator world)")
+        if p["map"]:
+            try:
+                return load_map(Path(p["map"])), {}
+            except MapFormatError as exc:
+                raise ConfigurationError(str(exc)) from None
+        from raspv_sim.occupancy_export import world_occupancy
+        from raspv_sim.simulator import SimConfig, Simulation
+        from raspv_sim.world_spec import WorldFileError
+
+        try:
+            with Simulation(p["world"], SimConfig(width=16, height=12, renderer="tiny")) as sim:
+                grid = world_occupancy(sim.world, 0.05, structure_only=True)
+                goals = {g.name: np.array(g.position, dtype=float) for g in sim.spec.goals}
+        except WorldFileError as exc:
+            raise ConfigurationError(str(exc)) from None
+        return grid, goals
+
+    def _goal_position(self, p: dict):
+        """Goal (x, y) from goal_name or goal; a string explains what is wrong."""
+        if p["goal_name"]:
+            if p["goal_name"] not in self.world_goals:
+                known = ", ".join(sorted(self.world_goals)) or "none (goal names need 'world')"
+                return f"goal_name {p['goal_name']!r} is not a goal of the world; goals: {known}"
+            return self.world_goals[p["goal_name"]]
+        if len(p["goal"]) != 2:
+            return f"goal must be [x, y], got {p['goal']}"
+        return np.array(p["goal"], dtype=float)
+
+    @staticmethod
+    def _make_assistant(grid, p: dict, goal: np.ndarray) -> NavigationAssistant:
         return NavigationAssistant(
-            grid, np.array(p["goal"]),
+            grid, goal,
             PlannerConfig(robot_radius=p["robot_radius"], inflation_radius=p["inflation_radius"]),
             DWAConfig(max_speed=p["max_speed"], robot_radius=p["robot_radius"]),
             goal_tolerance=p["goal_tolerance"], memory_s=p["obstacle_memory"])
@@ -84,10 +114,11 @@ class PlannerNode(RaspvNode):
                         self.create_timer(1.0 / p["control_rate"], self.control)]
 
     def on_parameters(self, changes):
-        if "goal" in changes and len(changes["goal"]) != 2:
-            return f"goal must be [x, y], got {changes['goal']}"
         merged = {**self.params, **changes}
-        self.assistant = self._make_assistant(self.assistant.grid, merged)
+        goal = self._goal_position(merged)
+        if isinstance(goal, str):
+            return goal
+        self.assistant = self._make_assistant(self.assistant.grid, merged, goal)
         if "replan_rate" in changes or "control_rate" in changes:
             self._start_timers(merged)
         self._goal_reached_logged = False
@@ -142,7 +173,7 @@ class PlannerNode(RaspvNode):
             self.warn_throttled("nopath", f"no path to the goal: {status.reason}")
             return
         if status.goal_reached and not self._goal_reached_logged:
-            self.get_logger().info(f"goal {self.params['goal']} reached")
+            self.get_logger().info(f"goal {np.round(self.assistant.goal, 2).tolist()} reached")
             self._goal_reached_logged = True
         msg = PathMsg(header=self.header("world"))
         for x, y in status.path:

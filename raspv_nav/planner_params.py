@@ -2,8 +2,11 @@
 from raspv_common.params import Param
 
 PARAMS = [
-    Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`)", dynamic=False),
-    Param("goal", [0.0, 0.0], "goal position (x, y) in the world frame", unit="m"),
+    Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`); or use 'world'", dynamic=False),
+    Param("world", "", "simulator world (name or file): its structural map (walls, doors, stairs) is the building map",
+          dynamic=False),
+    Param("goal", [0.0, 0.0], "goal position (x, y) in the world frame (unless goal_name is set)", unit="m"),
+    Param("goal_name", "", "name of a goal of the simulator world (overrides 'goal')"),
     Param("robot_radius", 0.3, "clearance kept from obstacles", minimum=0.05, maximum=1.5, unit="m"),
     Param("inflation_radius", 1.0, "obstacles raise the path cost up to this distance", minimum=0.1, maximum=5.0, unit="m"),
     Param("replan_rate", 2.0, "global replanning rate", minimum=0.1, maximum=20.0, unit="Hz"),

@@ -30,7 +30,6 @@ from raspv_sim.sim_params import PARAMS
 from raspv_sim.simulator import SimConfig, Simulation
 from raspv_sim.world_spec import WorldFileError
 
-SIM_CLASSES = "/sim/classes"   # std_msgs/String JSON class table, latched
 MAX_STEP_S = 0.2               # a stalled tick never moves the avatar more than this much time
 
 _AVATAR_PARAMS = {"eye_height": "eye_height", "max_linear": "max_linear", "max_angular": "max_angular",
@@ -81,7 +80,7 @@ class SimNode(RaspvNode):
         self.pub_odom = self.create_publisher(Odometry, topics.ODOM, SENSOR_QOS)
         self.pub_labels = self.create_publisher(Image, topics.SIM_LABELS, SENSOR_QOS)
         self.pub_collisions = self.create_publisher(CollisionEventMsg, topics.SIM_COLLISIONS, EVENT_QOS)
-        self.pub_classes = self.create_publisher(String, SIM_CLASSES, LATCHED_QOS)
+        self.pub_classes = self.create_publisher(String, topics.SIM_CLASSES, LATCHED_QOS)
         self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
         self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS)
         self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)

@@ -51,7 +51,27 @@ def test_planner_publishes_a_path_to_the_goal_around_obstacles(graph, probe, tmp
 
 def test_planner_without_map_fails_with_one_line(graph):
     g = graph({"launch": {"nodes": [{"kind": "planner"}]}, "planner": {"ros__parameters": {"goal": [1.0, 1.0]}}})
-    g.wait_for_output(r"configuration error: parameter 'map' is empty")
+    g.wait_for_output(r"configuration error: give exactly one of 'map' \(map_server YAML\) or 'world'")
     g.proc.wait(timeout=30)
     assert g.stop() == 1
     assert "Traceback" not in g.output
+
+
+def test_planner_in_the_office_world_guides_to_the_bin(graph, probe):
+    """The paper's navigation experiment: building map from the world's structure, named goal."""
+    graph({"launch": {"nodes": [{"kind": "sim"}, {"kind": "planner"}]},
+           "sim": {"ros__parameters": {"world": "office", "rate": 10.0}},
+           "planner": {"ros__parameters": {"world": "office", "goal_name": "bin"}}})
+    path = probe.wait_for_message(topics.NAV_PATH, Path, timeout=90)
+    pts = np.array([[p.pose.position.x, p.pose.position.y] for p in path.poses])
+    assert np.linalg.norm(pts[0] - [1.0, 6.0]) < 0.3          # the avatar's spawn
+    assert np.linalg.norm(pts[-1] - [19.0, 11.0]) < 1e-6       # the bin goal
+    assert len(pts) >= 3                                       # it has to go around walls
+
+
+def test_unknown_goal_name_is_a_one_line_error(graph):
+    g = graph({"launch": {"nodes": [{"kind": "planner"}]},
+               "planner": {"ros__parameters": {"world": "office", "goal_name": "fridge"}}})
+    g.wait_for_output(r"goal_name 'fridge' is not a goal of the world; goals: bin")
+    g.proc.wait(timeout=30)
+    assert g.stop() == 1
