@@ -25,7 +25,7 @@ from raspv_common import topics
 from raspv_common.conversions import depth_from_image, image_to_array, pose_to_matrix
 from raspv_common.qos import LATCHED_QOS
 from raspv_sim.avatar import head_quaternion
-from raspv_sim.sim_node import SIM_CLASSES
+
 
 pytestmark = pytest.mark.integration
 
@@ -63,7 +63,7 @@ def test_sim_publishes_the_source_topics_and_ground_truth(graph, probe):
     assert odom.pose.pose.position.x == pytest.approx(0.7)
     labels = probe.wait_for_message(topics.SIM_LABELS, Image)
     assert labels.encoding == "mono8"
-    table = json.loads(probe.wait_for_message(SIM_CLASSES, String, qos=LATCHED_QOS).data)
+    table = json.loads(probe.wait_for_message(topics.SIM_CLASSES, String, qos=LATCHED_QOS).data)
     assert table["world"] == "apartment" and table["classes"][:3] == ["none", "floor", "wall"]
     present = {table["classes"][i] for i in np.unique(image_to_array(labels))}
     assert {"floor", "wall"} <= present
