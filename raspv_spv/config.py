@@ -1,0 +1,81 @@
+"""Configuration of the phosphene simulator: a device preset plus explicit choices (no ROS).
+
+:func:`spv_config` is the one place that turns user values (the spv node's parameters, or
+keyword arguments of the offline API) into a :class:`SpvConfig`: the ``device`` preset gives
+the prosthesis values, and any explicitly given value overrides it. For the node, 0 (numbers)
+and "" (names) mean "the device's value", so ``raspv param set spv device argus_ii`` switches
+every value that was not set explicitly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from raspv_spv.device import Device, load_device
+from raspv_spv.phosphene_map import MapSpec
+from raspv_spv.temporal_lut import TemporalLUTConfig
+
+# Device fields a user may override (the value 0 / "" means: keep the device's).
+DEVICE_OVERRIDES = ("num_phosphenes", "fov_deg", "grid", "field", "phosphene_fov_deg", "num_levels",
+                    "pulse_amplitude_ua", "pulse_phase_ms")
+# Device fields whose own default (0) is meaningful, so an explicit 0 must be honoured.
+DEVICE_DEFECTS = ("dropout", "noise_px")
+
+
+@dataclass(frozen=True)
+class SpvConfig:
+    """Everything a :class:`~raspv_spv.simulator.PhospheneSimulator` is built from.
+
+    ``device``: the resolved prosthesis (after overrides). ``width`` × ``height``: phosphene
+    image px. ``frame_rate``: display rate [Hz] = the temporal model's frame rate.
+    ``mode_settings``: values modes read (``max_depth`` m, ``edge_low``/``edge_high``, …).
+    """
+
+    device: Device
+    width: int = 800
+    height: int = 800
+    seed: int = 0
+    mode: str = "grey"
+    overlays: tuple[str, ...] = ()
+    temporal: bool = True
+    temporal_model: str = "horsager2009"
+    temporal_sample: str = "mean"
+    frame_rate: float = 50.0
+    output_format: str = "mono8"
+    mode_settings: Mapping[str, Any] = field(default_factory=dict)
+
+    def map_spec(self) -> MapSpec:
+        d = self.device
+        return MapSpec(self.width, self.height, d.num_phosphenes, d.grid, d.field, d.fov_deg,
+                       d.phosphene_fov_deg, d.dropout, d.noise_px, self.seed)
+
+    def lut_config(self) -> TemporalLUTConfig:
+        d = self.device
+        return TemporalLUTConfig(model=self.temporal_model, frame_ms=1000.0 / self.frame_rate,
+                                 pulse_amplitude_ua=d.pulse_amplitude_ua, pulse_phase_ms=d.pulse_phase_ms,
+                                 sample=self.temporal_sample)
+
+
+def spv_config(device: str | Device = "default", *, width: int = 800, height: int = 0, seed: int = 0,
+               mode: str = "grey", overlays: tuple[str, ...] | list[str] = (), temporal: bool = True,
+               temporal_model: str = "horsager2009", temporal_sample: str = "mean", frame_rate: float = 50.0,
+               output_format: str = "mono8", mode_settings: Mapping[str, Any] | None = None,
+               dropout: float | None = None, noise_px: float | None = None, **device_overrides: Any) -> SpvConfig:
+    """A :class:`SpvConfig` from a device preset (name, YAML path or :class:`Device`) and
+    overrides. ``height`` 0 means ``width`` × the device's aspect ratio; device overrides with
+    value 0, "" or None are ignored (they mean "the device's value")."""
+    dev = device if isinstance(device, Device) else load_device(device)
+    unknown = sorted(set(device_overrides) - set(DEVICE_OVERRIDES))
+    if unknown:
+        raise ValueError(f"unknown setting(s) {', '.join(unknown)}; device settings: {', '.join(DEVICE_OVERRIDES + DEVICE_DEFECTS)}")
+    changes = {k: v for k, v in device_overrides.items() if v not in (0, 0.0, "", None)}
+    if dropout is not None:
+        changes["dropout"] = float(dropout)
+    if noise_px is not None:
+        changes["noise_px"] = float(noise_px)
+    dev = dev.with_changes(**changes) if changes else dev
+    if height == 0:
+        height = max(16, int(round(width * dev.aspect)))
+    return SpvConfig(dev, int(width), int(height), int(seed), mode, tuple(overlays), bool(temporal), temporal_model,
+                     temporal_sample, float(frame_rate), output_format, dict(mode_settings or {}))
+

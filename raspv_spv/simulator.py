@@ -1,0 +1,158 @@
+"""The phosphene simulator: one object from a configuration, frames in, phosphene images out.
+
+The ``spv`` node, ``raspv bench spv``, the figure scripts and notebooks all use this class —
+there is no second implementation. A frame goes through:
+
+1. the representation mode (and overlays) → integer level per phosphene, sampled through
+   P_i^C = K_C·K_P⁻¹·P_i for the frame's camera model (:mod:`raspv_spv.sampling`);
+2. the temporal model (optional): a level > 0 delivers a pulse this frame; the 10-frame pulse
+   history picks a gain g ∈ [0, 1] from the look-up table (:mod:`raspv_spv.temporal_lut`);
+   brightness = level/(N_L−1) · g (the level sets how bright the phosphene can get, the
+   pulse history how much of it is perceived now); dropped phosphenes are 0;
+3. the renderer → mono8 or green rgb8 image (:mod:`raspv_spv.renderer`).
+
+Offline use::
+
+    from raspv_spv.simulator import render_frame
+    image = render_frame(rgb, depth, camera, device="argus_ii", mode="depth")
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_spv.config import SpvConfig, spv_config
+from raspv_spv.frame_inputs import FrameInputs, check_inputs
+from raspv_spv.modes import mode_class, overlay_class
+from raspv_spv.phosphene_map import PhospheneMap
+from raspv_spv.renderer import Renderer
+from raspv_spv.sampling import Sampling
+from raspv_spv.sprites import GaussianSprite, Sprite
+from raspv_spv.temporal_lut import TemporalState, load_table
+
+
+class InputError(ValueError):
+    """A frame the simulator cannot use (wrong array types, missing inputs)."""
+
+
+@dataclass
+class SpvFrame:
+    """One simulated frame: ``levels`` (N,) uint8 requested by the mode, ``brightness`` (N,)
+    float32 displayed in [0, 1] (after the temporal model and dropout), and the ``image``."""
+
+    levels: np.ndarray
+    brightness: np.ndarray
+    image: np.ndarray
+
+
+class PhospheneSimulator:
+    """Map, sprites, renderer, mode, overlays and temporal state of one configuration.
+
+    Building costs tens of milliseconds (plus a few seconds the first time a temporal table is
+    computed; tables are cached on disk); :meth:`step` is the per-frame work.
+    """
+
+    def __init__(self, config: SpvConfig, sprite: Sprite | None = None) -> None:
+        self.config = config
+        self.map = PhospheneMap.build(config.map_spec())
+        self.sprite = sprite or GaussianSprite(self.map.diameter_px)
+        self.renderer = Renderer(self.map.display_centres, ~self.map.dropped, config.width, config.height,
+                                 self.sprite, config.output_format)
+        self.mode = mode_class(config.mode)(config.mode_settings)
+        self.overlays = [overlay_class(name)(config.mode_settings) for name in config.overlays]
+        self.num_levels = config.device.num_levels
+        self._visible = (~self.map.dropped).astype(np.float32)
+        self._level_scale = np.float32(1.0 / (self.num_levels - 1))
+        self.temporal = TemporalState(load_table(config.lut_config()), self.map.count) if config.temporal else None
+        self._samplings: dict[CameraIntrinsics, Sampling] = {}
+
+    # -- configuration --------------------------------------------------------------------------
+    @property
+    def count(self) -> int:
+        """Number of phosphenes N."""
+        return self.map.count
+
+    @property
+    def needs(self) -> frozenset[str]:
+        """Inputs the mode and overlays read."""
+        out = set(self.mode.needs)
+        for o in self.overlays:
+            out |= o.needs
+        return frozenset(out)
+
+    def adopt_state(self, previous: "PhospheneSimulator") -> None:
+        """Continue ``previous``'s pulse histories (after a rebuild with the same phosphenes),
+        so a run-time change of, say, the mode does not restart the temporal model."""
+        if self.temporal is not None and previous.temporal is not None and previous.count == self.count:
+            self.temporal.history[:] = previous.temporal.history
+
+    def sampling(self, camera: CameraIntrinsics) -> Sampling:
+        """The phosphenes' camera pixels for ``camera`` (cached for the last few cameras)."""
+        s = self._samplings.get(camera)
+        if s is None:
+            if len(self._samplings) >= 4:
+                self._samplings.clear()
+            s = self._samplings[camera] = Sampling.build(self.map, camera)
+        return s
+
+    # -- per frame ------------------------------------------------------------------------------
+    def levels(self, inputs: FrameInputs) -> np.ndarray:
+        """Levels (N,) uint8 from the mode and overlays. Raises :class:`InputError` when the
+        inputs are malformed or lack something the mode or an overlay needs."""
+        problems = check_inputs(inputs)
+        if problems:
+            raise InputError("; ".join(problems))
+        missing = inputs.missing(sorted(self.needs))
+        if missing:
+            raise InputError(f"mode {self.config.mode!r}{' with overlays' if self.overlays else ''} needs "
+                             f"{', '.join(missing)}, not in this frame")
+        sampling = self.sampling(inputs.camera) if inputs.camera is not None else None
+        levels = np.asarray(self.mode.levels(inputs, sampling, self.num_levels))
+        if levels.shape != (self.count,):
+            raise ValueError(f"mode {self.config.mode} returned {levels.shape} levels for {self.count} phosphenes")
+        levels = np.clip(levels, 0, self.num_levels - 1).astype(np.uint8)
+        for overlay in self.overlays:
+            levels = overlay.apply(levels, inputs, sampling, self.num_levels)
+        return levels
+
+    def brightness(self, levels: np.ndarray, frames: int = 1) -> np.ndarray:
+        """Displayed brightness (N,) float32 in [0, 1] for ``levels`` held over the last
+        ``frames`` display frames (advances the temporal model when it is on)."""
+        b = np.asarray(levels, dtype=np.float32) * self._level_scale
+        if self.temporal is not None:
+            b *= self.temporal.step(levels > 0, frames)
+        b *= self._visible
+        return b
+
+    def render(self, brightness: np.ndarray) -> np.ndarray:
+        """The phosphene image of ``brightness`` (mono8 (H, W) or green rgb8 (H, W, 3))."""
+        return self.renderer.render(brightness)
+
+    def step(self, inputs: FrameInputs, frames: int = 1) -> SpvFrame:
+        """Levels, brightness and image of one frame."""
+        levels = self.levels(inputs)
+        brightness = self.brightness(levels, frames)
+        return SpvFrame(levels, brightness, self.render(brightness))
+
+    def reset(self) -> None:
+        """Forget the pulse histories."""
+        if self.temporal is not None:
+            self.temporal.reset()
+
+
+def render_frame(color: np.ndarray | None, depth: np.ndarray | None, camera: CameraIntrinsics,
+                 device: str = "default", *, temporal: bool = False, **settings: Any) -> np.ndarray:
+    """One RGB-D frame → phosphene image (offline API for notebooks and batch rendering).
+
+    ``color`` (H, W, 3) uint8 RGB and/or ``depth`` (H, W) float32 m (NaN = no reading),
+    ``camera`` their intrinsics; ``device`` a preset name or YAML path; ``settings`` any
+    argument of :func:`raspv_spv.config.spv_config` (``mode``, ``width``, ``fov_deg``,
+    ``num_phosphenes``, ``dropout``, ``mode_settings={"max_depth": 4.0}`` …). The temporal
+    model is off by default: a single frame would only show the first frame of a rising
+    response; for sequences keep one :class:`PhospheneSimulator` and call ``step``.
+    """
+    sim = PhospheneSimulator(spv_config(device, temporal=temporal, **settings))
+    return sim.step(FrameInputs(color=color, depth=depth, camera=camera)).image
