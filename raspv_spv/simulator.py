@@ -7,8 +7,10 @@ there is no second implementation. A frame goes through:
    P_i^C = K_C·K_P⁻¹·P_i for the frame's camera model (:mod:`raspv_spv.sampling`);
 2. the temporal model (optional): a level > 0 delivers a pulse this frame; the 10-frame pulse
    history picks a gain g ∈ [0, 1] from the look-up table (:mod:`raspv_spv.temporal_lut`);
-   brightness = level/(N_L−1) · g (the level sets how bright the phosphene can get, the
-   pulse history how much of it is perceived now); dropped phosphenes are 0;
+   brightness = g · a, with a = level/(N_L−1) of the phosphene's latest pulse (the level sets
+   how bright it can get, the pulse history how much of it is perceived now, and a phosphene
+   switched off fades from the level it had); without it brightness = level/(N_L−1);
+   dropped phosphenes are 0;
 3. the renderer → mono8 or green rgb8 image (:mod:`raspv_spv.renderer`).
 
 Offline use::
@@ -87,7 +89,7 @@ class PhospheneSimulator:
         """Continue ``previous``'s pulse histories (after a rebuild with the same phosphenes),
         so a run-time change of, say, the mode does not restart the temporal model."""
         if self.temporal is not None and previous.temporal is not None and previous.count == self.count:
-            self.temporal.history[:] = previous.temporal.history
+            self.temporal.adopt(previous.temporal)
 
     def sampling(self, camera: CameraIntrinsics) -> Sampling:
         """The phosphenes' camera pixels for ``camera`` (cached for the last few cameras)."""
@@ -123,7 +125,7 @@ class PhospheneSimulator:
         ``frames`` display frames (advances the temporal model when it is on)."""
         b = np.asarray(levels, dtype=np.float32) * self._level_scale
         if self.temporal is not None:
-            b *= self.temporal.step(levels > 0, frames)
+            b = self.temporal.step(b, frames)
         b *= self._visible
         return b
 

@@ -11,7 +11,8 @@ by the table's maximum, so entries lie in [0, 1] and entry 0 (no pulse for 10 fr
 Tables are built once (≈ 2 s) and cached on disk under ``$RASPV_CACHE_DIR`` (default
 ``~/.cache/raspv``) in a file named by a hash of every parameter. At run time
 :class:`TemporalState` keeps one uint16 history per phosphene: a frame costs a shift, an OR and
-one table look-up for all phosphenes.
+one table look-up for all phosphenes. Levels above 1 bit are handled as pulse amplitude: the
+gain of the history multiplies the level of the phosphene's latest pulse.
 """
 from __future__ import annotations
 
@@ -130,7 +131,14 @@ def load_table(config: TemporalLUTConfig, use_cache: bool = True) -> np.ndarray:
 
 
 class TemporalState:
-    """Pulse histories of ``count`` phosphenes (uint16 registers) and their temporal gain."""
+    """Pulse histories of ``count`` phosphenes (uint16 registers) and the amplitude of each
+    phosphene's latest pulse.
+
+    A phosphene pulses in a frame when its requested amplitude (level/(N_L−1)) is above 0. Its
+    brightness is the table's gain for its pulse history times the amplitude of its latest
+    pulse, so a phosphene that was just switched off keeps fading at the level it had (the
+    trail), and a phosphene held at a level converges to that level.
+    """
 
     def __init__(self, table: np.ndarray, count: int) -> None:
         table = np.asarray(table, dtype=np.float32)
@@ -138,18 +146,29 @@ class TemporalState:
             raise ValueError(f"temporal table must have {TABLE_SIZE} entries, got {table.shape}")
         self.table = table
         self.history = np.zeros(count, dtype=np.uint16)
+        self.amplitude = np.zeros(count, dtype=np.float32)
 
     def reset(self) -> None:
         self.history[:] = 0
+        self.amplitude[:] = 0
 
-    def step(self, pulses: np.ndarray, frames: int = 1) -> np.ndarray:
-        """Advance by ``frames`` display frames during which ``pulses`` (bool per phosphene)
-        held; return the gain in [0, 1] per phosphene for the current frame."""
-        on = np.asarray(pulses, dtype=bool).astype(np.uint16)
+    def adopt(self, other: "TemporalState") -> None:
+        """Continue ``other``'s histories (same number of phosphenes)."""
+        if other.history.shape != self.history.shape:
+            raise ValueError(f"cannot continue {other.history.size} pulse histories with {self.history.size} phosphenes")
+        self.history[:] = other.history
+        self.amplitude[:] = other.amplitude
+
+    def step(self, amplitude: np.ndarray, frames: int = 1) -> np.ndarray:
+        """Advance by ``frames`` display frames during which ``amplitude`` (N,) in [0, 1] was
+        requested; return the perceived brightness (N,) float32 in [0, 1] of the current frame."""
+        amp = np.asarray(amplitude, dtype=np.float32)
+        on = amp > 0
         frames = max(1, min(int(frames), HISTORY_FRAMES))
         fill = np.uint16((1 << frames) - 1)
         h = self.history
         np.left_shift(h, np.uint16(frames), out=h)
-        h |= on * fill
+        h |= on.astype(np.uint16) * fill
         h &= np.uint16(TABLE_SIZE - 1)
-        return self.table[h]
+        np.copyto(self.amplitude, amp, where=on)
+        return self.table[h] * self.amplitude
