@@ -1,0 +1,243 @@
+"""Phosphene simulator speed: ours vs pulse2percept's ScoreboardModel and dynaphos, one core.
+
+Part 1 times the whole per-frame path of :class:`~raspv_spv.simulator.PhospheneSimulator`
+(mode → levels, temporal look-up, render) for a device preset on a real RGB-D frame that moves
+every frame, and reports the renderer's memory. Part 2 compares, at the same phosphene count
+and output size, our levels → image step with pulse2percept 0.11 ``ScoreboardModel`` on the
+AlphaIMS implant (1500 electrodes), and Part 3 with dynaphos' ``GaussianSimulator`` (CPU
+torch), given the very same phosphene positions. All on one thread (``OMP_NUM_THREADS=1``,
+``torch.set_num_threads(1)``, ``cv2.setNumThreads(1)``).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+import warnings
+from pathlib import Path
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+TUM = Path(__file__).resolve().parent.parent / "tests" / "data" / "rgbd"
+
+# dynaphos' published parameters (neuralcodinglab/dynaphos config/params.yaml), CPU, no dropout
+# or noise so that it draws exactly the phosphenes it is given.
+DYNAPHOS_PARAMS = {
+    "run": {"resolution": [256, 256], "view_angle": 20.0, "origin": [0, 0], "min_angle": 0.001, "fps": 50, "gpu": None,
+            "print_stats": False, "seed": 42, "dtype": "float32", "use_gaussian_lut": False, "batch_size": 0},
+    "display": {"screen_resolution": [1920, 1080], "screen_diagonal": 13.3, "dist_to_screen": 600},
+    "sampling": {"sampling_method": "center", "RF_size": 0.5},
+    "cortex_model": {"model": "dipole", "k": 17.3, "a": 0.75, "b": 120, "alpha": 0.95, "dropout_rate": 0.0,
+                     "noise_scale": 0.0},
+    "temporal_dynamics": {"trace_increase_rate": 13.95528162, "activation_decay_per_second": 0.00012340980408667956,
+                          "trace_decay_per_second": 0.99949191},
+    "size": {"size_equation": "sqrt", "MD": 0.7, "I_half": 40, "slope_size": 0.08, "current_spread": 675.e-6,
+             "radius_to_sigma": 0.5},
+    "brightness_saturation": {"cps_half": 1.057631326853325e-07, "slope_brightness": 19152642.500946816},
+    "thresholding": {"use_threshold": True, "rheobase": 23.9e-6, "activation_threshold": 9.141886000943878e-08,
+                     "activation_threshold_sd": 6.715877869833961e-08},
+    "default_stim": {"relative_stim_duration": 1, "pw_default": 170.e-6, "freq_default": 300},
+    "gabor": {"gabor_filtering": False, "gamma": 1.5},
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--device", default="default", help="preset timed in part 1 (default: default)")
+    parser.add_argument("--mode", default="grey", help="representation mode in part 1 (default: grey)")
+    parser.add_argument("--size", type=int, default=800, help="output width in part 1 [px] (default 800)")
+    parser.add_argument("--no-temporal", action="store_true", help="part 1 without the temporal model")
+    parser.add_argument("--frames", type=int, default=500, help="frames timed in part 1 (default 500)")
+    parser.add_argument("--p2p-size", type=int, default=401, help="output size of part 2, px square (default 401)")
+    parser.add_argument("--dynaphos-size", type=int, default=256, help="output size of part 3, px square (default 256)")
+    parser.add_argument("--peer-frames", type=int, default=3, help="frames timed per peer (default 3)")
+    parser.add_argument("--no-peers", action="store_true", help="skip parts 2 and 3")
+
+
+def _ms(samples: list[float]) -> tuple[float, float]:
+    v = sorted(samples)
+    return 1e3 * statistics.median(v), 1e3 * v[min(len(v) - 1, int(round(0.95 * (len(v) - 1))))]
+
+
+def _test_frames():
+    """Two real frames (TUM desk, and the same shifted 12 px) so every frame changes."""
+    import numpy as np
+
+    from raspv_common.intrinsics import CameraIntrinsics
+
+    camera = CameraIntrinsics(640, 480, 525.0, 525.0, 319.5, 239.5)
+    try:
+        from raspv_common.rgbd_files import read_color, read_depth_scaled
+
+        color = read_color(TUM / "tum_color.png")
+        depth = read_depth_scaled(TUM / "tum_depth.png", 1 / 5000)
+        source = "TUM RGB-D desk frame"
+    except Exception:                                          # installed without the test data
+        u = np.linspace(0, 255, 640, dtype=np.float32)
+        color = np.repeat(np.broadcast_to(u, (480, 640))[..., None], 3, axis=2).astype(np.uint8)
+        depth = np.broadcast_to(np.linspace(0.5, 4.0, 480, dtype=np.float32)[:, None], (480, 640)).copy()
+        source = "synthetic gradient"
+    shifted = (np.roll(color, 12, axis=1), np.roll(depth, 12, axis=1))
+    return [(color, depth), shifted], camera, source
+
+
+def part_ours(args) -> dict:
+    import cv2
+    import numpy as np
+    import psutil
+
+    from raspv_spv.config import spv_config
+    from raspv_spv.frame_inputs import FrameInputs
+    from raspv_spv.simulator import PhospheneSimulator
+
+    cv2.setNumThreads(1)
+    rss0 = psutil.Process().memory_info().rss
+    t0 = time.perf_counter()
+    sim = PhospheneSimulator(spv_config(args.device, width=args.size, mode=args.mode, temporal=not args.no_temporal))
+    build_s = time.perf_counter() - t0
+    rss1 = psutil.Process().memory_info().rss
+    frames, camera, source = _test_frames()
+    inputs = [FrameInputs(color=c, depth=d, camera=camera) for c, d in frames]
+    for i in range(20):
+        sim.step(inputs[i % 2])
+    levels_t, bright_t, render_t, total_t = [], [], [], []
+    for i in range(args.frames):
+        t0 = time.perf_counter()
+        lv = sim.levels(inputs[i % 2])
+        t1 = time.perf_counter()
+        b = sim.brightness(lv)
+        t2 = time.perf_counter()
+        sim.render(b)
+        t3 = time.perf_counter()
+        levels_t.append(t1 - t0)
+        bright_t.append(t2 - t1)
+        render_t.append(t3 - t2)
+        total_t.append(t3 - t0)
+    cfg = sim.config
+    print(f"Part 1 - ours: {cfg.device.name} preset, {sim.count} {cfg.device.grid} phosphenes, "
+          f"{cfg.width}x{cfg.height}, mode {cfg.mode}, temporal {'on' if cfg.temporal else 'off'}, "
+          f"{args.frames} frames of a {source} (640x480), one thread")
+    for name, t in (("mode -> levels", levels_t), ("temporal LUT", bright_t), ("render", render_t), ("total", total_t)):
+        med, p95 = _ms(t)
+        print(f"  {name:16s} median {med:7.3f} ms   p95 {p95:7.3f} ms")
+    med, _ = _ms(total_t)
+    print(f"  renderer matrix  {sim.renderer.nbytes / 1e6:.1f} MB ({sim.renderer.matrix.nnz} sprite pixels); "
+          f"simulator build {1e3 * build_s:.0f} ms, +{(rss1 - rss0) / 1e6:.0f} MB resident")
+    target = "met" if med <= 2.0 else "MISSED"
+    print(f"  target <= 2 ms/frame median: {target} ({med:.3f} ms, {1e3 / med:.0f} frames/s)")
+    return {"median_ms": med}
+
+
+def _ours_levels_to_image(device: str, width: int, height: int, frames: int):
+    """(simulator, median seconds of temporal + render from random levels)."""
+    import numpy as np
+
+    from raspv_spv.config import spv_config
+    from raspv_spv.simulator import PhospheneSimulator
+
+    sim = PhospheneSimulator(spv_config(device, width=width, height=height, temporal=True))
+    rng = np.random.default_rng(0)
+    levels = [rng.integers(0, sim.num_levels, sim.count).astype(np.uint8) for _ in range(8)]
+    times = []
+    for i in range(max(frames, 50)):
+        t0 = time.perf_counter()
+        sim.render(sim.brightness(levels[i % 8]))
+        times.append(time.perf_counter() - t0)
+    return sim, statistics.median(times)
+
+
+def part_pulse2percept(args) -> None:
+    import numpy as np
+    try:
+        from pulse2percept.implants.retina import AlphaIMS
+        from pulse2percept.models.retina import ScoreboardModel
+    except ImportError as exc:
+        print(f"Part 2 - pulse2percept not available ({exc}); pip install pulse2percept to compare")
+        return
+    # AlphaIMS's aspect (0.95): 1520 phosphenes on our lattice for its 1500 electrodes
+    width = args.p2p_size
+    height = int(round(width * 0.95)) | 1
+    sim, ours = _ours_levels_to_image("alpha_ims", width, height, args.frames)
+    implant = AlphaIMS()
+    half = sim.config.device.fov_deg / 2
+    step = 2 * half / (width - 1)
+    half_y = step * (height - 1) / 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                       # its note on rho vs the electrode pitch
+        model = ScoreboardModel(implant=implant, xrange=(-half, half), yrange=(-half_y, half_y), step=step,
+                                verbose=False, n_threads=1)
+        model.build()
+    rng = np.random.default_rng(0)
+    times = []
+    shape = None
+    for _ in range(args.peer_frames):
+        stim = implant.prepare_stim(rng.uniform(0.0, 20.0, len(implant.electrodes)))
+        t0 = time.perf_counter()
+        percept = model.predict_percept(stim)
+        times.append(time.perf_counter() - t0)
+        shape = percept.data.shape
+    theirs = statistics.median(times)
+    print(f"Part 2 - AlphaIMS: ours {sim.count} phosphenes vs pulse2percept ScoreboardModel "
+          f"{len(implant.electrodes)} electrodes, output {width}x{height} (theirs {shape[1]}x{shape[0]}), one thread")
+    print(f"  ours (temporal + render)       {1e3 * ours:9.3f} ms/frame")
+    print(f"  pulse2percept predict_percept  {1e3 * theirs:9.1f} ms/frame")
+    ratio = theirs / ours
+    print(f"  ratio {ratio:,.0f}x faster (target >= 1000x: {'met' if ratio >= 1000 else 'MISSED'})")
+
+
+def part_dynaphos(args) -> None:
+    import numpy as np
+    try:
+        import torch
+        from dynaphos.simulator import GaussianSimulator
+        from dynaphos.utils import Map
+    except ImportError as exc:
+        print(f"Part 3 - dynaphos not available ({exc}); pip install dynaphos torch to compare")
+        return
+    torch.set_num_threads(1)
+    size = args.dynaphos_size
+    sim, ours = _ours_levels_to_image("default", size, size, args.frames)
+    # the same phosphenes, in degrees of visual field (dynaphos: x right, y up)
+    f = sim.map.focal_px
+    x = np.degrees(np.arctan((sim.map.centres[:, 0] - size / 2) / f))
+    y = -np.degrees(np.arctan((sim.map.centres[:, 1] - size / 2) / f))
+    params = {k: dict(v) for k, v in DYNAPHOS_PARAMS.items()}
+    params["run"]["resolution"] = [size, size]
+    params["run"]["view_angle"] = sim.config.device.fov_deg
+    rng = np.random.default_rng(0)
+    t0 = time.perf_counter()
+    theirs_sim = GaussianSimulator(params, Map(x=x, y=y), rng)
+    build = time.perf_counter() - t0
+    times = []
+    for _ in range(args.peer_frames):
+        amp = torch.tensor(rng.uniform(0.0, 100e-6, theirs_sim.num_phosphenes), dtype=torch.float32)
+        t0 = time.perf_counter()
+        theirs_sim(amp)
+        times.append(time.perf_counter() - t0)
+    theirs = statistics.median(times)
+    print(f"Part 3 - default preset: ours {sim.count} phosphenes vs dynaphos GaussianSimulator "
+          f"{theirs_sim.num_phosphenes} phosphenes, output {size}x{size}, CPU torch, one thread")
+    print(f"  ours (temporal + render)       {1e3 * ours:9.3f} ms/frame")
+    print(f"  dynaphos simulator(amplitude)  {1e3 * theirs:9.1f} ms/frame (build {build:.1f} s)")
+    print(f"  ratio {theirs / ours:,.0f}x faster")
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_spv.device import DeviceError
+
+    try:
+        part_ours(args)
+    except (DeviceError, ValueError, KeyError) as exc:
+        print(f"raspv bench spv: {exc}")
+        return 2
+    if not args.no_peers:
+        part_pulse2percept(args)
+        part_dynaphos(args)
+    return 0
+
+
+if __name__ == "__main__":
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_arguments(p)
+    raise SystemExit(run(p.parse_args()))
