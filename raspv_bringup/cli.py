@@ -21,6 +21,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("raspv_bringup.bench", "benchmarks with figures and ratios against peers"),
     "sim": ("raspv_sim.sim_cli", "world files and logged runs: check, map, render, plot"),
     "teleop": ("raspv_bringup.teleop_cli", "drive the avatar and turn its head from this terminal"),
+    "bag": ("raspv_bringup.bag_cli", "record, play, inspect and repair bags; build one from RGB-D image files"),
 }
 
 

@@ -26,6 +26,7 @@ NODES: dict[str, NodeSpec] = {
                         "navigation assistant: global path on the building map, obstacles from depth, DWA hint"),
     "sim": NodeSpec("raspv_sim.sim_node", "raspv_sim.sim_params:PARAMS", "virtual world (PyBullet): avatar, RGB-D camera, ground truth, collisions, logs"),
     "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
+    "replay": NodeSpec("raspv_camera.replay_node", "raspv_camera.replay_params:PARAMS", "a recorded bag as the source: original timing, rate, loop, remapping, /clock"),
 }
 
 

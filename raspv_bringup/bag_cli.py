@@ -1,0 +1,374 @@
+"""`raspv bag record|play|info|repair|from-frames` — ROS 2 bags without rosbag2.
+
+- ``record [TOPICS…] -o DIR``: raw subscriptions (bytes written unchanged) with QoS matched to
+  the publishers, topics that appear later picked up, live counts on one status line; Ctrl-C
+  or SIGTERM closes a complete bag; a SIGKILLed recording stays readable (``repair`` makes it
+  complete for other tools).
+- ``play BAG``: the ``replay`` node in this process (original timing, rate, loop, remapping,
+  ``/clock``; timing error at the end).
+- ``info BAG``: topics, types, counts, rates, QoS, and what is wrong with a damaged bag.
+- ``repair BAG``: a complete copy of everything readable.
+- ``from-frames DIR -o BAG``: a bag from colour/depth image folders (TUM layout and others).
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import os
+import signal
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+from raspv_bringup.middleware import apply_middleware_defaults
+
+ACTIONS = ("record", "play", "info", "repair", "from-frames")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="bag_action", metavar="ACTION", required=True)
+
+    rec = sub.add_parser("record", help="record topics of the running graph into a bag",
+                         description="Record topics of the running graph. Without TOPICS: every topic "
+                                     "(except /rosout, /parameter_events).")
+    rec.add_argument("topics", nargs="*", metavar="TOPIC", help="topic names or patterns like '/camera/*'")
+    rec.add_argument("-o", "--output", metavar="DIR", help="bag directory to create (default rosbag2_<date>)")
+    rec.add_argument("-x", "--exclude", nargs="+", default=[], metavar="TOPIC", help="topics/patterns to leave out")
+    rec.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
+    rec.add_argument("-d", "--duration", type=float, default=None, metavar="S", help="stop after S seconds")
+    rec.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
+                     help="seconds between flushes to disk: at most this much is lost if the recorder is killed "
+                          "(default 0.5)")
+
+    play = sub.add_parser("play", help="publish a bag's messages with their original timing",
+                          description="Publish a bag into the graph (the replay node, run in this process).")
+    play.add_argument("bag", help="bag directory or .mcap/.db3 file")
+    play.add_argument("-r", "--rate", type=float, default=1.0, help="speed factor (default 1.0)")
+    play.add_argument("--start", type=float, default=0.0, metavar="S", help="start S seconds into the bag")
+    play.add_argument("-l", "--loop", action="store_true", help="play again from the start at the end")
+    play.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="play only these topics")
+    play.add_argument("-x", "--exclude", nargs="+", default=[], metavar="TOPIC", help="do not play these topics")
+    play.add_argument("--remap", nargs="+", default=[], metavar="FROM:=TO", help="publish a topic under another name")
+    play.add_argument("--no-clock", action="store_true", help="do not publish /clock")
+    play.add_argument("--clock-rate", type=float, default=100.0, metavar="HZ", help="/clock rate (default 100)")
+
+    info = sub.add_parser("info", help="topics, counts, rates and problems of a bag")
+    info.add_argument("bag", help="bag directory or .mcap/.db3 file")
+
+    rep = sub.add_parser("repair", help="write a complete copy of an unfinished or damaged bag",
+                         description="Copy everything readable from BAG into a new complete bag "
+                                     "(e.g. after the recorder was killed). BAG itself is not changed.")
+    rep.add_argument("bag", help="bag directory or .mcap/.db3 file")
+    rep.add_argument("-o", "--output", metavar="DIR", help="new bag directory (default <BAG>-repaired)")
+    rep.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default=None, help="default: as the source")
+
+    ff = sub.add_parser("from-frames", help="build a bag from folders of colour/depth images",
+                        description="Build a bag (colour rgb8, depth 32FC1, camera_info, optional pose) from "
+                                    "RGB-D image files: a TUM sequence (rgb.txt, depth.txt, groundtruth.txt), "
+                                    "folders of colour/depth images, or single colour/depth pairs.")
+    ff.add_argument("source", nargs="?", help="folder with the frames (not needed with --color/--depth)")
+    ff.add_argument("-o", "--output", required=True, metavar="DIR", help="bag directory to create")
+    ff.add_argument("--color", nargs="+", default=[], metavar="FILE", help="colour image files (with --depth)")
+    ff.add_argument("--depth", nargs="+", default=[], metavar="FILE", help="depth image files, same order")
+    ff.add_argument("--fps", type=float, default=30.0, help="frame rate when the files hold no timestamps (default 30)")
+    ff.add_argument("--start-time", type=float, default=None, metavar="S",
+                    help="first timestamp [s since the epoch] with --fps (default: now)")
+    ff.add_argument("--depth-format", choices=("auto", "tum", "mm", "nyu", "metres"), default="auto",
+                    help="depth encoding: tum (uint16/5000), mm (uint16 millimetres), nyu (NYU v2 raw disparity), "
+                         "metres (float images); auto: tum for TUM sequences, else mm/metres by pixel type")
+    ff.add_argument("--depth-scale", type=float, default=None, metavar="M", help="metres per unit of uint16 depth")
+    ff.add_argument("--groundtruth", metavar="FILE", help="TUM groundtruth.txt for /camera/pose "
+                                                          "(found automatically in a TUM sequence)")
+    ff.add_argument("--max-dt", type=float, default=0.02, metavar="S",
+                    help="largest colour/depth/pose time difference when associating by timestamp (default 0.02)")
+    cam = ff.add_argument_group("camera intrinsics (one of)")
+    cam.add_argument("--camera", choices=("primesense", "tum-fr1", "tum-fr2", "tum-fr3", "xtion-60deg"),
+                     help="a preset (640x480 values, rescaled to the image size)")
+    cam.add_argument("--intrinsics", metavar="FILE", help="YAML with fx, fy, cx, cy [, width, height] "
+                                                          "or a ROS camera-calibration file")
+    for k in ("fx", "fy", "cx", "cy"):
+        cam.add_argument(f"--{k}", type=float, default=None, help=f"{k} [px]")
+    ff.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
+
+
+def run(args: argparse.Namespace) -> int:
+    return {"record": _record, "play": _play, "info": _info, "repair": _repair,
+            "from-frames": _from_frames}[args.bag_action](args)
+
+
+def _err(action: str, text: str) -> int:
+    print(f"raspv bag {action}: {text}", file=sys.stderr)
+    return 1
+
+
+# -- record -------------------------------------------------------------------------------------
+
+def _record(args: argparse.Namespace) -> int:
+    from raspv_camera.bag_recording import Recording, TopicSelection
+    from raspv_camera.bag_writer import BagWriteError
+
+    if args.duration is not None and args.duration <= 0:
+        return _err("record", f"--duration must be > 0, got {args.duration}")
+    if args.flush_interval <= 0:
+        return _err("record", f"--flush-interval must be > 0, got {args.flush_interval}")
+    out = Path(args.output or dt.datetime.now().strftime("rosbag2_%Y_%m_%d-%H_%M_%S"))
+    try:
+        recording = Recording(out, args.storage, flush_interval_s=args.flush_interval)
+    except BagWriteError as exc:
+        return _err("record", str(exc))
+    selection = TopicSelection(tuple(args.topics), tuple(args.exclude))
+
+    apply_middleware_defaults()
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = []
+    previous = {s: signal.signal(s, lambda *_: stop.append(True)) for s in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(args=["raspv", "--ros-args", "--disable-rosout-logs"], signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node(f"raspv_bag_record_{os.getpid()}")
+    recorder = _GraphRecorder(node, recording, selection)
+    tty = sys.stderr.isatty()
+    print(f"recording to {out} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
+    start = time.monotonic()
+    last_status = last_discovery = last_flush = 0.0
+    try:
+        while not stop and rclpy.ok():
+            rclpy.spin_once(node, timeout_sec=0.05)
+            now = time.monotonic()
+            if now - last_discovery >= 0.5:
+                last_discovery = now
+                recorder.discover()
+            if now - last_flush >= args.flush_interval:
+                last_flush = now
+                recording.flush()
+            if tty and now - last_status >= 0.5 or not tty and now - last_status >= 5.0:
+                last_status = now
+                width = os.get_terminal_size(sys.stderr.fileno()).columns - 1 if tty else 200
+                line = recording.status_line(width)
+                print("\r" + line if tty else line, end="" if tty else "\n", file=sys.stderr, flush=True)
+            if args.duration is not None and now - start >= args.duration:
+                break
+    finally:
+        recording.close()
+        node.destroy_node()
+        rclpy.try_shutdown()
+        for s, h in previous.items():
+            signal.signal(s, h)
+    if tty:
+        print(file=sys.stderr)
+    for pattern in selection.unmatched(recording.topics):
+        print(f"raspv bag record: no topic matching {pattern} appeared", file=sys.stderr)
+    print(recording.summary())
+    return 0
+
+
+class _GraphRecorder:
+    """Subscribes (raw) to every selected topic as it appears."""
+
+    def __init__(self, node, recording, selection) -> None:
+        self.node, self.recording, self.selection = node, recording, selection
+        self.subscriptions: dict[str, object] = {}
+        self.skipped: set[str] = set()
+
+    def discover(self) -> None:
+        from raspv_camera.bag_types import ensure_type
+        from raspv_camera.bag_writer import BagWriteError, QosSpec
+        from raspv_common.ros_introspection import message_class, qos_matching_publishers
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+        for name, types in self.node.get_topic_names_and_types():
+            if name in self.subscriptions or name in self.skipped or not self.selection.wants(name):
+                continue
+            infos = self.node.get_publishers_info_by_topic(name)
+            if not infos:
+                continue  # only subscribers so far: wait for a publisher
+            if len(types) != 1:
+                self._skip(name, f"published with several types ({', '.join(types)})")
+                continue
+            msgtype = types[0]
+            try:
+                cls = message_class(msgtype)
+            except ValueError:
+                self._skip(name, f"message type {msgtype} is not installed")
+                continue
+            if not ensure_type(msgtype):
+                self._skip(name, f"no message definition found for {msgtype}")
+                continue
+            offered = [QosSpec(reliable=i.qos_profile.reliability == ReliabilityPolicy.RELIABLE,
+                               transient_local=i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL,
+                               depth=i.qos_profile.depth if i.qos_profile.depth > 0 else 10) for i in infos]
+            qos = qos_matching_publishers(self.node, name)
+            qos.depth = 100  # never drop while the writer is busy with a large message
+            try:
+                self.recording.add_topic(name, msgtype, offered)
+            except BagWriteError as exc:
+                self._skip(name, str(exc))
+                continue
+            write = self.recording.on_message
+            self.subscriptions[name] = self.node.create_subscription(
+                cls, name, lambda data, topic=name: write(topic, data, time.time_ns()), qos, raw=True)
+            kind = ("reliable" if qos.reliability == ReliabilityPolicy.RELIABLE else "best-effort") + \
+                   (", transient-local" if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL else "")
+            print(f"\r+ {name} [{msgtype}] ({kind})", file=sys.stderr, flush=True)
+
+    def _skip(self, name: str, why: str) -> None:
+        self.skipped.add(name)
+        print(f"\rraspv bag record: skipping {name}: {why}", file=sys.stderr, flush=True)
+
+
+# -- play ---------------------------------------------------------------------------------------
+
+def _play(args: argparse.Namespace) -> int:
+    from raspv_camera.bag_playback import parse_remap
+
+    if not args.rate > 0:
+        return _err("play", f"--rate must be > 0, got {args.rate}")
+    if args.start < 0:
+        return _err("play", f"--start must be >= 0, got {args.start}")
+    try:
+        parse_remap(args.remap)
+    except ValueError as exc:
+        return _err("play", str(exc))
+    if not Path(args.bag).exists():
+        return _err("play", f"{args.bag}: no such bag")
+    params = {"bag": str(Path(args.bag).resolve()), "rate": float(args.rate), "start_offset": float(args.start),
+              "loop": bool(args.loop), "topics": list(args.topics), "exclude_topics": list(args.exclude),
+              "remap": list(args.remap), "publish_clock": not args.no_clock,
+              "clock_rate": float(args.clock_rate), "at_end": "exit", "progress": sys.stderr.isatty()}
+    # An empty list in a parameter file reaches rclpy as "not set": leave empty lists out.
+    params = {k: v for k, v in params.items() if v != []}
+    apply_middleware_defaults()
+    from raspv_camera.replay_node import ReplayNode
+    from raspv_common.node import run_node
+
+    with tempfile.NamedTemporaryFile("w", suffix=".yaml", prefix="raspv-play-", delete=False) as f:
+        yaml.safe_dump({"/**": {"ros__parameters": params}}, f)
+    try:
+        run_node(ReplayNode, ["raspv-bag-play", "--ros-args", "--params-file", f.name, "--disable-rosout-logs"])
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    finally:
+        os.unlink(f.name)
+    return 0
+
+
+# -- info ---------------------------------------------------------------------------------------
+
+def _info(args: argparse.Namespace) -> int:
+    from raspv_camera.bag_reader import BagError, BagReader
+
+    try:
+        reader = BagReader(args.bag)
+    except BagError as exc:
+        return _err("info", str(exc))
+    with reader:
+        print(format_info(reader))
+    return 0
+
+
+def format_info(reader) -> str:
+    """Human summary of an open :class:`~raspv_camera.bag_reader.BagReader`."""
+    lines = [f"bag:       {reader.path}",
+             f"storage:   {reader.storage}" + ("" if reader.complete else "  (INCOMPLETE: see notes)")]
+    if reader.start_ns is not None:
+        start = dt.datetime.fromtimestamp(reader.start_ns * 1e-9).isoformat(sep=" ", timespec="milliseconds")
+        lines.append(f"duration:  {reader.duration_s:.3f} s  (start {start})")
+    lines.append(f"messages:  {reader.message_count}")
+    lines.append("topics:")
+    for t in sorted(reader.topics.values(), key=lambda t: t.name):
+        rate = f"{(t.count - 1) / reader.duration_s:6.1f} Hz" if reader.duration_s > 0 and t.count > 1 else "       -"
+        qos = ""
+        if t.qos:
+            q = t.qos[0]
+            qos = ("reliable" if q.reliable else "best-effort") + (" transient-local" if q.transient_local else "")
+        unknown = "" if t.known_type else "  (unknown type)"
+        lines.append(f"  {t.name:38s} {t.count:7d}  {rate}  {t.msgtype}  {qos}{unknown}")
+    for note in reader.notes:
+        lines.append(f"note: {note}")
+    return "\n".join(lines)
+
+
+# -- repair -------------------------------------------------------------------------------------
+
+def _repair(args: argparse.Namespace) -> int:
+    from raspv_camera.bag_reader import BagError
+    from raspv_camera.bag_repair import repair_bag
+    from raspv_camera.bag_writer import BagWriteError
+
+    src = Path(args.bag)
+    out = Path(args.output) if args.output else src.with_name((src.stem if src.is_file() else src.name) + "-repaired")
+    tty = sys.stderr.isatty()
+
+    def progress(done: int, total: int) -> None:
+        if tty:
+            print(f"\r{done}/{total} messages", end="", file=sys.stderr, flush=True)
+
+    try:
+        report = repair_bag(src, out, args.storage, progress)
+    except (BagError, BagWriteError) as exc:
+        return _err("repair", str(exc))
+    if tty:
+        print(file=sys.stderr)
+    for note in report.notes:
+        print(f"note: {note}", file=sys.stderr)
+    print(f"{out}: complete bag with {report.message_count} messages "
+          f"({', '.join(f'{t} {n}' for t, n in sorted(report.counts.items()))})")
+    return 0
+
+
+# -- from-frames --------------------------------------------------------------------------------
+
+def _from_frames(args: argparse.Namespace) -> int:
+    from raspv_camera.bag_from_frames import (CAMERA_PRESETS, FramesError, discover_frames, load_intrinsics_file,
+                                              write_frames_bag)
+    from raspv_camera.bag_writer import BagWriteError
+
+    given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
+    try:
+        if given and len(given) < 4:
+            raise FramesError(f"give all of --fx --fy --cx --cy (missing {', '.join(k for k in ('fx', 'fy', 'cx', 'cy') if k not in given)})")
+        if sum(bool(x) for x in (given, args.intrinsics, args.camera)) > 1:
+            raise FramesError("give the intrinsics one way: --fx/--fy/--cx/--cy, --intrinsics or --camera")
+        frames = discover_frames(Path(args.source) if args.source else None, args.color, args.depth, fps=args.fps,
+                                 start_s=args.start_time, depth_format=args.depth_format,
+                                 depth_scale=args.depth_scale,
+                                 groundtruth=Path(args.groundtruth) if args.groundtruth else None,
+                                 max_dt_s=args.max_dt)
+        if given:
+            intr = {k: getattr(args, k) for k in ("fx", "fy", "cx", "cy")}
+        elif args.intrinsics:
+            intr = load_intrinsics_file(Path(args.intrinsics))
+        elif args.camera:
+            fx, fy, cx, cy = CAMERA_PRESETS[args.camera]
+            intr = {"fx": fx, "fy": fy, "cx": cx, "cy": cy, "width": 640, "height": 480}
+        else:
+            intr = None
+        print(f"{len(frames.pairs)} frames ({frames.layout} layout, depth {frames.depth_format})", file=sys.stderr)
+        tty = sys.stderr.isatty()
+
+        def progress(done: int, total: int) -> None:
+            if tty:
+                print(f"\r{_bar(done, total)}", end="", file=sys.stderr, flush=True)
+
+        report = write_frames_bag(frames, intr, Path(args.output), args.storage, progress)
+        if tty:
+            print(file=sys.stderr)
+    except (FramesError, BagWriteError) as exc:
+        return _err("from-frames", str(exc))
+    for note in report.notes:
+        print(f"note: {note}", file=sys.stderr)
+    cam = report.intrinsics
+    print(f"{report.output}: {report.frames} frames {report.size[0]}x{report.size[1]}"
+          f" (fx {cam.fx:.1f}, fy {cam.fy:.1f}, cx {cam.cx:.1f}, cy {cam.cy:.1f})"
+          + (f", {report.with_pose} poses" if report.with_pose else "")
+          + (f", {report.skipped} skipped" if report.skipped else ""))
+    return 0
+
+
+def _bar(done: int, total: int, width: int = 30) -> str:
+    frac = done / total if total else 1.0
+    n = int(round(frac * width))
+    return f"[{'#' * n}{'.' * (width - n)}] {done}/{total}"

@@ -1,0 +1,170 @@
+"""`replay` node: a recorded bag as the graph's source.
+
+Publishes the bag's messages — serialised bytes unchanged — on their topics (after remapping)
+with their original timing, using the same QoS classes as the live graph
+(:func:`raspv_camera.bag_playback.publisher_qos`), and the bag's time on ``/clock``. The
+playback itself is :class:`raspv_camera.bag_playback.Player`, run in a thread; the executor
+keeps serving parameters (``rate``, ``paused``, ``loop`` change while playing). At the end
+(or on shutdown) it logs the messages sent and the timing error (p50/p95/max).
+"""
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+
+from raspv_camera.bag_playback import PlaybackOptions, PlaybackReport, Player, parse_remap, publisher_qos
+from raspv_camera.bag_reader import BagError
+from raspv_camera.replay_params import PARAMS
+from raspv_common import topics
+from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.qos import EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.ros_introspection import message_class
+
+_CLASS_QOS = {"sensor": SENSOR_QOS, "latched": LATCHED_QOS, "event": EVENT_QOS}
+CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.VOLATILE)
+
+
+def _profile(kind: str, spec) -> QoSProfile:
+    if kind in _CLASS_QOS:
+        return _CLASS_QOS[kind]
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
+                      reliability=ReliabilityPolicy.RELIABLE if spec.reliable else ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if spec.transient_local else DurabilityPolicy.VOLATILE)
+
+
+class ReplayNode(RaspvNode):
+    def __init__(self) -> None:
+        super().__init__("replay", PARAMS)
+        p = self.params
+        if not p["bag"]:
+            raise ConfigurationError("parameter 'bag' is required (a bag directory or a .mcap/.db3 file)")
+        try:
+            options = PlaybackOptions(rate=p["rate"], start_offset_s=p["start_offset"], loop=p["loop"],
+                                      topics=tuple(t for t in p["topics"] if t),
+                                      exclude=tuple(t for t in p["exclude_topics"] if t),
+                                      remap=parse_remap(r for r in p["remap"] if r),
+                                      clock_rate_hz=p["clock_rate"] if p["publish_clock"] else 0.0)
+            self.player = Player(p["bag"], options, self._publish,
+                                 self._publish_clock if p["publish_clock"] else None)
+        except (BagError, ValueError) as exc:
+            raise ConfigurationError(str(exc)) from None
+        self.publishers_by_topic = {}
+        for t in self.player.topics:
+            out = self.player.out_topic[t.name]
+            try:
+                cls = message_class(t.msgtype)
+            except ValueError:
+                self.player.notes.append(f"{t.name}: message type {t.msgtype} is not installed; not replayed")
+                continue
+            kind, spec = publisher_qos(out, t.qos)
+            self.publishers_by_topic[out] = self.create_publisher(cls, out, _profile(kind, spec))
+        if not self.publishers_by_topic:
+            raise ConfigurationError(f"{p['bag']}: none of its message types are installed; nothing to replay")
+        self.pub_clock = self.create_publisher(Clock, topics.CLOCK, CLOCK_QOS) if p["publish_clock"] else None
+        for note in self.player.notes:
+            self.get_logger().warning(note)
+        r = self.player.reader
+        self.get_logger().info(
+            f"replaying {p['bag']}: {r.duration_s:.1f} s, {len(self.publishers_by_topic)} topics "
+            f"({', '.join(sorted(self.publishers_by_topic))}), rate {p['rate']:g}"
+            + (", looping" if p["loop"] else ""))
+        self.report: PlaybackReport | None = None
+        self._status_t = 0.0
+        self._reported = False
+        self.player.options.loop = p["loop"]
+        if p["paused"]:
+            self.player.set_paused(True)
+        self.create_timer(2.0, self._check_other_publishers)
+        self._checks_left = 3
+        self._thread = threading.Thread(target=self._play, name="replay", daemon=True)
+        self._thread.start()
+
+    # -- playback thread ----------------------------------------------------------------------
+    def _publish(self, topic: str, _msgtype: str, data) -> None:
+        pub = self.publishers_by_topic.get(topic)
+        if pub is not None:
+            pub.publish(bytes(data) if not isinstance(data, bytes) else data)
+        if self.params["progress"]:
+            self._print_status()
+
+    def _publish_clock(self, bag_ns: int) -> None:
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(int(bag_ns), 1_000_000_000)
+        self.pub_clock.publish(msg)
+
+    def _play(self) -> None:
+        try:
+            self.report = self.player.run()
+        except Exception as exc:  # a reading failure the reader could not absorb
+            self.get_logger().error(f"playback stopped: {exc}")
+            self.report = None
+        if not self.player._stop.is_set():
+            self._log_report()
+            if self.params["at_end"] == "exit":
+                self.context.try_shutdown()
+
+    def _print_status(self) -> None:
+        now = time.monotonic()
+        if now - self._status_t < 0.5:
+            return
+        self._status_t = now
+        total = sum(self.player.counts.values())
+        print(f"\r[replay] {self.player.position_s:6.1f} / {self.player.reader.duration_s:.1f} s  "
+              f"{total} messages  rate {self.player.rate:g}   ", end="", file=sys.stderr, flush=True)
+
+    def _log_report(self) -> None:
+        if self._reported or self.report is None:
+            return
+        self._reported = True
+        rep = self.report
+        if self.params["progress"]:
+            print(file=sys.stderr)
+        counts = ", ".join(f"{t} {n}" for t, n in sorted(rep.counts.items()))
+        end = "stopped" if rep.stopped else "finished"
+        self.get_logger().info(f"{end}: {sum(rep.counts.values())} messages in {rep.wall_s:.1f} s "
+                               f"({rep.loops} pass{'es' if rep.loops > 1 else ''}; {counts})")
+        self.get_logger().info(rep.timing.line())
+        for note in rep.notes:
+            if note not in self.player.reader.notes:
+                self.get_logger().warning(note)
+
+    # -- graph checks and parameters -----------------------------------------------------------
+    def _check_other_publishers(self) -> None:
+        if self._checks_left <= 0:
+            return
+        self._checks_left -= 1
+        for topic in self.publishers_by_topic:
+            n = self.count_publishers(topic)
+            if n > 1:
+                self.warn_throttled(f"dup:{topic}", f"{topic} is also published by {n - 1} other node(s); "
+                                                    f"exclude it from the replay (exclude_topics) or stop that node",
+                                    period_s=1e9)
+
+    def on_parameters(self, changes):
+        if "rate" in changes:
+            self.player.set_rate(changes["rate"])
+        if "paused" in changes:
+            self.player.set_paused(changes["paused"])
+        if "loop" in changes:
+            self.player.options.loop = changes["loop"]
+        return None
+
+    def close(self) -> None:
+        self.player.stop()
+        self._thread.join(timeout=5.0)
+        if self.report is not None:
+            self._log_report()
+
+
+def main(argv=None) -> None:
+    run_node(ReplayNode, argv)
+
+
+if __name__ == "__main__":
+    main()
