@@ -6,9 +6,9 @@ the top-left corner of the top-left pixel (pixel (col j, row i) has its centre a
 - Spacing (eqs. 1–3): rectangular δ = ⌊√(A/N)⌋; hexagonal δx = ⌊√(A·2/√3 / N)⌋,
   δy = ⌊√3/2·δx⌋, where A = w·h for the whole-image field and π·r² for the circular field
   (r = min(w, h)/2, the inscribed circle; π/4·w·h for a square image as in eq. 3).
-- Centres: first at (δx/2, δy/2), rows δy apart, odd hexagonal rows shifted by δx/2; a row
-  ends where the next phosphene's cell (δx × δy around its centre) would leave the image; the
-  circular field keeps the centres inside the inscribed circle.
+- Centres: first at (δx/2, δy/2), side by side δx apart until the row ends (the centre leaves
+  the image), rows δy apart, odd hexagonal rows shifted by δx/2; the circular field keeps the
+  centres inside the inscribed circle. The count is close to, not exactly, N (paper A-B).
 - K_P (eqs. 4–5): f_P = w / (2·tan(FOV/2)), c = (w/2, h/2), square pixels.
 - Phosphene diameter (eq. 6): φ = 2·f_P·tan(FOV_P/2) px.
 - Defects (Appendix A-C): dropout (round(d·N) phosphenes, a fixed random subset) and Gaussian
@@ -95,18 +95,15 @@ def lattice_spacing(width: int, height: int, num_phosphenes: int, grid: str, fie
 
 
 def lattice_centres(width: int, height: int, dx: int, dy: int, grid: str, field: str = "rectangular") -> np.ndarray:
-    """Phosphene centres (N, 2) as (x, y) px, row by row from the top-left."""
+    """Phosphene centres (N, 2) as (x, y) px, row by row from the top-left: rows at
+    y = δy/2 + i·δy and columns at x = δx/2 (+ δx/2 on odd hexagonal rows) + j·δx while the
+    centre is inside the image."""
+    ys = dy / 2.0 + dy * np.arange(int(math.ceil((height - dy / 2.0) / dy)))
     rows = []
-    y = dy / 2.0
-    i = 0
-    while y + dy / 2.0 <= height + 1e-9:
+    for i, y in enumerate(ys):
         x0 = dx / 2.0 + (dx / 2.0 if grid == "hexagonal" and i % 2 == 1 else 0.0)
-        count = int(math.floor((width - x0 - dx / 2.0) / dx + 1e-9)) + 1
-        if count > 0:
-            xs = x0 + dx * np.arange(count)
-            rows.append(np.stack([xs, np.full(count, y)], axis=1))
-        y += dy
-        i += 1
+        xs = x0 + dx * np.arange(max(0, int(math.ceil((width - x0) / dx))))
+        rows.append(np.stack([xs, np.full(xs.size, y)], axis=1))
     centres = np.concatenate(rows) if rows else np.zeros((0, 2))
     if field == "circular":
         r = min(width, height) / 2.0
