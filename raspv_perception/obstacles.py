@@ -1,8 +1,12 @@
 """Obstacles as Euclidean clusters of points (no ROS).
 
-Points are grouped into voxels; voxels whose centroids are within ``tolerance`` of each other
-are linked (k-d tree), and connected groups are clusters — Euclidean cluster extraction on the
-voxel-downsampled cloud, with the cluster id mapped back to every input point.
+Two points belong to the same cluster when a chain of links joins them; a link is
+- 3-D proximity: points in voxels whose centroids are within ``tolerance`` (k-d tree on the
+  voxel-downsampled cloud, the classic Euclidean cluster extraction), or
+- image adjacency: neighbouring samples of the organised cloud closer than the larger of
+  ``tolerance`` and ``spacing_factor`` × their sample spacing (so sparse far surfaces, whose
+  samples are farther apart than ``tolerance``, still hold together).
+Camera frame C, metres.
 """
 from __future__ import annotations
 
@@ -14,17 +18,50 @@ from scipy.spatial import cKDTree
 from raspv_perception.point_cloud import voxel_downsample
 
 
-def euclidean_clusters(points: np.ndarray, voxel_size: float, tolerance: float, min_voxels: int
-                       ) -> tuple[np.ndarray, int]:
-    """Cluster id per point (N,) (−1: in a cluster of fewer than ``min_voxels`` voxels) and the
-    number of clusters; ids are ordered by cluster size, largest first. Points (N, 3) [m]."""
+def organised_links(indices: np.ndarray, points: np.ndarray, shape: tuple[int, int], tolerance: float,
+                    spacing: np.ndarray, spacing_factor: float = 3.0) -> np.ndarray:
+    """Links (E, 2) between positions in ``indices`` (flat sample indices of an organised grid of
+    ``shape``) that are right/down/diagonal image neighbours closer than
+    max(``tolerance``, ``spacing_factor`` × ``spacing`` [m]). ``points`` (len(indices), 3)."""
+    h, w = shape
+    pos = np.full(h * w, -1, dtype=np.int64)
+    pos[indices] = np.arange(len(indices))
+    grid = pos.reshape(h, w)
+    out = []
+    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        if dc >= 0:
+            a, b = grid[: h - dr, : w - dc], grid[dr:, dc:]
+        else:
+            a, b = grid[: h - dr, -dc:], grid[dr:, : w + dc]
+        both = (a >= 0) & (b >= 0)
+        ia, ib = a[both], b[both]
+        dist = np.linalg.norm(points[ia] - points[ib], axis=1)
+        limit = np.maximum(tolerance, spacing_factor * np.maximum(spacing[ia], spacing[ib]))
+        keep = dist < limit
+        out.append(np.stack([ia[keep], ib[keep]], axis=1))
+    return np.concatenate(out) if out else np.zeros((0, 2), dtype=np.int64)
+
+
+def euclidean_clusters(points: np.ndarray, voxel_size: float, tolerance: float, min_voxels: int,
+                       links: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """Cluster id per point (N,) (−1: in a cluster of fewer than ``min_voxels`` occupied voxels)
+    and the number of clusters, largest first. ``links`` (E, 2): extra point pairs to join."""
     pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-    if len(pts) == 0:
+    n = len(pts)
+    if n == 0:
         return np.zeros(0, dtype=np.int64), 0
     grid = voxel_downsample(pts, voxel_size)
     m = len(grid.counts)
     pairs = cKDTree(grid.centroids).query_pairs(tolerance, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs), dtype=np.int8), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    # Graph nodes: voxels 0..m-1; each point is tied to its voxel through the links' endpoints.
+    rows = [pairs[:, 0]]
+    cols = [pairs[:, 1]]
+    if links is not None and len(links):
+        rows.append(grid.inverse[links[:, 0]])
+        cols.append(grid.inverse[links[:, 1]])
+    r = np.concatenate(rows)
+    c = np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(m, m))
     count, comp = connected_components(graph, directed=False)
     sizes = np.bincount(comp, minlength=count)
     order = np.argsort(-sizes, kind="stable")

@@ -93,8 +93,9 @@ def organised_normals(cloud: OrganisedCloud, step: int = 2, max_inverse_depth_be
     Each normal is the cross product of the central differences ``step`` samples apart in the
     image rows and columns of a 3×3-smoothed cloud. A normal is invalid where a neighbour is
     missing or the surface bends or breaks: on a plane the inverse depth 1/z is affine in the
-    image, so its second difference over the stencil must stay below
-    ``max_inverse_depth_bend`` [1/m] (depth-sensor noise is roughly constant in 1/z).
+    image, so its second difference over ``step`` + 1 samples (the stencil and the smoothing)
+    must stay below ``max_inverse_depth_bend`` [1/m] (depth-sensor noise is roughly constant
+    in 1/z).
     """
     P = cloud.points
     valid = cloud.valid
@@ -125,12 +126,14 @@ def organised_normals(cloud: OrganisedCloud, step: int = 2, max_inverse_depth_be
     facing = nx * centre[..., 0] + ny * centre[..., 1] + nz * centre[..., 2]
     with np.errstate(invalid="ignore", divide="ignore"):
         scale = np.where(facing > 0, -1.0, 1.0).astype(np.float32) / norm
-    # Validity: all stencil samples measured, and 1/z nearly affine across the stencil.
+    # Validity: 1/z nearly affine over the stencil widened by the smoothing radius (k + 1
+    # samples each way), which also requires every sample there to be measured.
+    j = k + 1
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / P[..., 2]
-        ic2 = 2.0 * inv[rows, cols]
-        good = np.abs(inv[rows, 2 * k:] - ic2 + inv[rows, :w - 2 * k]) < max_inverse_depth_bend
-        good &= np.abs(inv[2 * k:, cols] - ic2 + inv[:h - 2 * k, cols]) < max_inverse_depth_bend
+        inv = np.pad(1.0 / P[..., 2], 1, constant_values=np.nan)      # padded by one sample
+        ic2 = 2.0 * inv[1 + k:h + 1 - k, 1 + k:w + 1 - k]
+        good = np.abs(inv[1 + k:h + 1 - k, 1 + k + j:w + 1 - k + j] - ic2 + inv[1 + k:h + 1 - k, 1 + k - j:w + 1 - k - j]) < max_inverse_depth_bend
+        good &= np.abs(inv[1 + k + j:h + 1 - k + j, 1 + k:w + 1 - k] - ic2 + inv[1 + k - j:h + 1 - k - j, 1 + k:w + 1 - k]) < max_inverse_depth_bend
         good &= norm > 0
     good &= valid[rows, cols]
     scale = np.where(good, scale, np.float32(np.nan))

@@ -43,9 +43,9 @@ class SceneConfig:
     manhattan_min_area: float = 0.3       # vertical surface area needed to report Manhattan axes [m²]
 
     # Obstacles and free floor
-    voxel_size: float = 0.05              # voxel edge for obstacle clustering [m]
-    cluster_tolerance: float = 0.08       # points of a cluster are at most this far apart [m]
-    min_cluster_voxels: int = 6           # smaller clusters are not obstacles [voxels]
+    voxel_size: float = 0.03              # voxel edge for obstacle clustering [m]
+    cluster_tolerance: float = 0.035      # points closer than this join a cluster (the Kinect laptop and box are 4.3 cm apart) [m]
+    min_cluster_voxels: int = 8           # smaller clusters are not obstacles [voxels]
     min_obstacle_height: float = 0.05     # an obstacle's top is at least this far above the floor's inlier band [m]
     max_obstacle_height: float = 2.0      # ... and at most this high (ceilings, lamps above the head are not obstacles) [m]
     obstacle_margin: float = 0.15         # floor within this of an obstacle is blocked [m]

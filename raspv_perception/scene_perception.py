@@ -22,7 +22,7 @@ from raspv_perception import scene_labels as L
 from raspv_perception.floor import CAMERA_UP, FloorCandidate, FloorTracker, angle_deg, camera_angles, floor_frame
 from raspv_perception.free_floor import free_floor
 from raspv_perception.manhattan import HorizontalBasis, manhattan_axes
-from raspv_perception.obstacles import euclidean_clusters
+from raspv_perception.obstacles import euclidean_clusters, organised_links
 from raspv_perception.plane_extraction import (CloudSamples, PlaneSegment, dominant_up, grow_planes, slanted_planes,
                                                upward_layers, vertical_planes, _pieces)
 from raspv_perception.plane_fitting import hull_on_plane
@@ -157,7 +157,7 @@ class ScenePerception:
 
         # 3. Obstacles and free floor ------------------------------------------------------------
         if reference is not None:
-            self._obstacles(structure, S, labels, reference)
+            self._obstacles(structure, S, labels, reference, intrinsics)
         clock.lap("obstacles_free_floor")
         full = cloud.upsample(labels)
         with np.errstate(invalid="ignore"):
@@ -171,20 +171,25 @@ class ScenePerception:
     def _classify(self, piece: PlaneSegment, is_floor: bool, up: np.ndarray, S: CloudSamples,
                   structure: SceneStructure) -> PlaneType:
         """Floor; horizontal (normal within ``horizontal_angle_deg`` of up); wall (vertical, at
-        least ``min_wall_area``, and reaching ``min_wall_top`` above the floor or the top of the
-        view — furniture sides stay obstacles); other."""
+        least ``min_wall_area`` or spanning the view from top to bottom, and reaching
+        ``min_wall_top`` above the floor or the top of the view — furniture sides stay
+        obstacles); other."""
         cfg = self.config
         if is_floor:
             return PlaneType.FLOOR
         tilt = angle_deg(piece.plane[:3], up)
         if tilt < cfg.horizontal_angle_deg:
             return PlaneType.HORIZONTAL
-        if abs(tilt - 90.0) > cfg.vertical_angle_deg or piece.area < cfg.min_wall_area:
+        if abs(tilt - 90.0) > cfg.vertical_angle_deg:
             return PlaneType.OTHER
-        if not structure.floor_found:
-            return PlaneType.WALL
-        top_row = int(piece.indices.min()) // S.shape[1]
-        if top_row <= cfg.normal_step + 1:
+        h, w = S.shape
+        margin = cfg.normal_step + 1                       # rows without normals at the border
+        top_row = int(piece.indices.min()) // w
+        bottom_row = int(piece.indices.max()) // w
+        reaches_top = top_row <= margin
+        if piece.area < cfg.min_wall_area and not (reaches_top and bottom_row >= h - 1 - margin):
+            return PlaneType.OTHER
+        if not structure.floor_found or reaches_top:
             return PlaneType.WALL
         f = structure.floor_plane
         top = float((S.points[piece.indices] @ f[:3].astype(np.float32)).max() + f[3])
@@ -204,7 +209,8 @@ class ScenePerception:
                   if structure.floor_found else math.nan)
         return Plane(kind, np.asarray(piece.plane, dtype=np.float64), centroid, area, height, len(idx), hull)
 
-    def _obstacles(self, structure: SceneStructure, S: CloudSamples, labels: np.ndarray, reference: np.ndarray) -> None:
+    def _obstacles(self, structure: SceneStructure, S: CloudSamples, labels: np.ndarray, reference: np.ndarray,
+                   intrinsics: CameraIntrinsics) -> None:
         cfg = self.config
         flat = labels.reshape(-1)
         n = reference[:3].astype(np.float32)
@@ -212,15 +218,20 @@ class ScenePerception:
             height = S.points @ n + np.float32(reference[3])
             # Everything above the reference plane's inlier band joins the clustering, so an
             # obstacle keeps its base; clusters whose top stays below min_obstacle_height are
-            # sensor noise along the plane and are dropped.
-            cand = (S.valid & (flat != L.FLOOR) & (flat != L.WALL)
-                    & (height > S.tolerance) & (height < cfg.max_obstacle_height))
+            # sensor noise along the plane and are dropped. Samples without a normal (depth
+            # edges, where "flying pixels" bridge objects) are labelled afterwards but do not link.
+            above = (S.valid & (flat != L.FLOOR) & (flat != L.WALL)
+                     & (height > S.tolerance) & (height < cfg.max_obstacle_height))
+            cand = above & S.has_normal
         idx = np.flatnonzero(cand)
         T = floor_frame(reference)
         R, t = T[:3, :3], T[:3, 3]
         obstacle_xz = np.zeros((0, 2))
         if len(idx):
-            ids, count = euclidean_clusters(S.points[idx], cfg.voxel_size, cfg.cluster_tolerance, cfg.min_cluster_voxels)
+            pts_c = S.points[idx]
+            spacing = pts_c[:, 2] * np.float32(cfg.stride / intrinsics.fx)
+            links = organised_links(idx, pts_c, S.shape, cfg.cluster_tolerance, spacing)
+            ids, count = euclidean_clusters(pts_c, cfg.voxel_size, cfg.cluster_tolerance, cfg.min_cluster_voxels, links)
             if count:
                 top = np.full(count, -np.inf)
                 np.maximum.at(top, ids[ids >= 0], height[idx[ids >= 0]] - S.tolerance[idx[ids >= 0]])
@@ -235,6 +246,9 @@ class ScenePerception:
             obstacle_xz = in_f[:, [0, 2]]
             was_other = flat[idx[member]] == L.OTHER
             flat[idx[member][was_other]] = L.OBSTACLE
+            edge = above & ~S.has_normal & (flat == L.OTHER)
+            near = cv2.dilate((labels == L.OBSTACLE).astype(np.uint8), np.ones((3, 3), np.uint8)).reshape(-1) > 0
+            flat[edge & near] = L.OBSTACLE
             hz = np.hypot(in_f[:, 0], in_f[:, 2])
             order = np.argsort(cid, kind="stable")
             bounds = np.searchsorted(cid[order], np.arange(count + 1))
