@@ -79,3 +79,15 @@ def spv_config(device: str | Device = "default", *, width: int = 800, height: in
     return SpvConfig(dev, int(width), int(height), int(seed), mode, tuple(overlays), bool(temporal), temporal_model,
                      temporal_sample, float(frame_rate), output_format, dict(mode_settings or {}))
 
+
+
+def config_from_node_params(p: Mapping[str, Any]) -> SpvConfig:
+    """The :class:`SpvConfig` of the spv node's parameter values (see ``spv_params.py``):
+    0, "" and −1 (dropout, noise) mean the device's value; every parameter is also handed to
+    the modes as their settings."""
+    return spv_config(
+        p["device"], width=p["width"], height=p["height"], seed=p["seed"], mode=p["mode"], overlays=p["overlays"],
+        temporal=p["temporal"], temporal_model=p["temporal_model"], temporal_sample=p["temporal_sample"],
+        frame_rate=p["rate"], output_format=p["output_format"], mode_settings=dict(p),
+        dropout=None if p["dropout"] < 0 else p["dropout"], noise_px=None if p["noise_px"] < 0 else p["noise_px"],
+        **{k: p[k] for k in DEVICE_OVERRIDES})

@@ -1,0 +1,265 @@
+"""`spv` node: the phosphene simulator in the graph.
+
+Inputs (only those the mode and overlays need are subscribed): colour, depth, camera info,
+camera pose. Every new frame of the mode's main input (colour, else depth) is turned into
+levels by the :class:`~raspv_spv.simulator.PhospheneSimulator`, in its own callback group.
+A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) advances the
+temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
+waits for a camera frame, and ticks it could not run on time are counted as dropped frames
+(the temporal model then advances by the frames that elapsed) and reported every 10 s.
+``/spv/map`` is latched and re-published whenever the map changes. Parameter changes build a
+complete new simulator and swap it in, or are refused with the reason; bad input images are
+skipped with one rate-limited warning.
+"""
+from __future__ import annotations
+
+import array
+import statistics
+from collections import deque
+import threading
+import time
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from rclpy._rclpy_pybind11 import RCLError
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from sensor_msgs.msg import CameraInfo, Image
+
+from raspv_common import topics
+from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image, pose_to_matrix,
+                                      rgb_from_image, stamp_to_seconds)
+from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
+from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_spv.config import config_from_node_params
+from raspv_spv.device import DeviceError
+from raspv_spv.frame_inputs import FrameInputs
+from raspv_spv.phosphene_map import MapError
+from raspv_spv.simulator import InputError, PhospheneSimulator
+from raspv_spv.spv_params import PARAMS
+
+REPORT_PERIOD_S = 10.0
+_BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
+
+
+def build_simulator(params: dict) -> PhospheneSimulator:
+    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
+    if params["edge_low"] > params["edge_high"]:
+        raise ValueError(f"edge_low ({params['edge_low']}) must not exceed edge_high ({params['edge_high']})")
+    return PhospheneSimulator(config_from_node_params(params))
+
+
+class SpvNode(RaspvNode):
+    def __init__(self) -> None:
+        super().__init__("spv", PARAMS)
+        try:
+            self.sim = build_simulator(self.params)
+        except _BUILD_ERRORS as exc:
+            raise ConfigurationError(str(exc).strip("'\"")) from None
+        self.map_id = 1
+        self._sim_lock = threading.Lock()
+        self._input_group = MutuallyExclusiveCallbackGroup()
+        self._display_group = MutuallyExclusiveCallbackGroup()
+        # latest inputs and the levels computed from them
+        self.color = self.depth = self.pose = None
+        self.intrinsics = None
+        self.stamps = {"color": 0.0, "depth": 0.0}
+        self._waiting_since: float | None = None
+        self._levels: tuple[int, np.ndarray, float] | None = None   # (map_id, levels, source stamp)
+        # display statistics
+        self._last_tick: float | None = None
+        self._ticks = 0
+        self._dropped = 0
+        self._dropped_reported = 0
+        self._tick_ms: deque[float] = deque(maxlen=3000)
+        self.pub_image = self.create_publisher(Image, topics.SPV_IMAGE, SENSOR_QOS)
+        self.pub_frame = self.create_publisher(PhospheneFrame, topics.SPV_FRAME, SENSOR_QOS)
+        self.pub_map = self.create_publisher(PhospheneMap, topics.SPV_MAP, LATCHED_QOS)
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_info, SENSOR_QOS,
+                                 callback_group=self._input_group)
+        self._subs: dict[str, object] = {}
+        self._update_subscriptions(self.sim.needs)
+        self._timer = self.create_timer(1.0 / self.params["rate"], self.tick, callback_group=self._display_group)
+        self.create_timer(REPORT_PERIOD_S, self.report, callback_group=self._display_group)
+        self.publish_map()
+        self.get_logger().info(self._describe(self.sim))
+
+    # -- configuration ------------------------------------------------------------------------
+    def _describe(self, sim: PhospheneSimulator) -> str:
+        c = sim.config
+        return (f"{c.device.name}: {sim.count} {c.device.grid} phosphenes ({c.device.field} field), "
+                f"FOV {c.device.fov_deg:g} deg, phosphene {c.device.phosphene_fov_deg:g} deg, {c.width}x{c.height} "
+                f"{c.output_format}, mode {c.mode}, temporal {c.temporal_model if c.temporal else 'off'}, "
+                f"{c.frame_rate:g} Hz")
+
+    def on_parameters(self, changes):
+        merged = {**self.params, **changes}
+        try:
+            new = build_simulator(merged)
+        except _BUILD_ERRORS as exc:
+            return str(exc).strip("'\"")
+        old = self.sim
+        map_changed = new.config.map_spec() != old.config.map_spec()
+        with self._sim_lock:
+            new.adopt_state(old)
+            if map_changed:
+                self.map_id += 1
+            self.sim = new
+        if "rate" in changes:
+            self.destroy_timer(self._timer)
+            self._timer = self.create_timer(1.0 / merged["rate"], self.tick, callback_group=self._display_group)
+            self._last_tick = None
+        self._update_subscriptions(new.needs)
+        if map_changed:
+            self.publish_map()
+        self.get_logger().info(self._describe(new))
+        return None
+
+    def _update_subscriptions(self, needs: frozenset[str]) -> None:
+        """Subscribe to the inputs the mode and overlays read, and only those."""
+        wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
+                  "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose)}
+        for name, (msg_type, topic, callback) in wanted.items():
+            if name in needs and name not in self._subs:
+                self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS,
+                                                            callback_group=self._input_group)
+            elif name not in needs and name in self._subs:
+                self.destroy_subscription(self._subs.pop(name))
+        unsupported = sorted(set(needs) - set(wanted) - {"camera"})
+        if unsupported:
+            self.warn_throttled("needs", f"mode {self.sim.config.mode} needs {', '.join(unsupported)}, which this node "
+                                         "does not subscribe to; its phosphenes stay off")
+
+    # -- inputs -------------------------------------------------------------------------------
+    def on_info(self, msg: CameraInfo) -> None:
+        try:
+            self.intrinsics = camera_info_to_intrinsics(msg)
+        except ValueError as exc:
+            self.warn_throttled("info", f"ignoring camera info: {exc}")
+
+    def on_color(self, msg: Image) -> None:
+        try:
+            self.color = rgb_from_image(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("color", f"ignoring colour image on {topics.COLOR}: {exc}")
+            return
+        self.stamps["color"] = stamp_to_seconds(msg.header.stamp)
+        self._frame_arrived("color")
+
+    def on_depth(self, msg: Image) -> None:
+        try:
+            self.depth = depth_from_image(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("depth", f"ignoring depth image on {topics.DEPTH}: {exc}")
+            return
+        self.stamps["depth"] = stamp_to_seconds(msg.header.stamp)
+        self._frame_arrived("depth")
+
+    def on_pose(self, msg: PoseStamped) -> None:
+        try:
+            self.pose = pose_to_matrix(msg.pose)
+        except ValueError as exc:
+            self.warn_throttled("pose", f"ignoring camera pose: {exc}")
+
+    def _frame_arrived(self, which: str) -> None:
+        """Recompute the levels when the mode's main input (colour, else depth) arrives."""
+        sim, map_id = self.sim, self.map_id
+        main = "color" if "color" in sim.needs else "depth"
+        if which != main:
+            return
+        if self.intrinsics is None:
+            now = time.monotonic()
+            self._waiting_since = self._waiting_since or now
+            if now - self._waiting_since > 1.0:          # not just the first frame overtaking the info
+                self.warn_throttled("no-info", f"images arrive but no camera info on {topics.CAMERA_INFO}; "
+                                               "phosphenes stay off until it comes")
+            return
+        inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
+                             camera_pose=self.pose)
+        try:
+            levels = sim.levels(inputs)
+        except InputError as exc:
+            self.warn_throttled("input", f"cannot use this frame: {exc}")
+            return
+        self._levels = (map_id, levels, self.stamps[which])
+
+    # -- display ------------------------------------------------------------------------------
+    def tick(self) -> None:
+        if not self.context.ok():                  # shutting down: the publishers are gone
+            return
+        t0 = time.monotonic()
+        frames = 1
+        if self._last_tick is not None:
+            period = 1.0 / self.params["rate"]
+            frames = max(1, int(round((t0 - self._last_tick) / period)))
+            self._dropped += frames - 1
+        self._last_tick = t0
+        with self._sim_lock:
+            sim, map_id = self.sim, self.map_id
+            current = self._levels
+            if current is not None and current[0] == map_id and current[1].shape == (sim.count,):
+                levels, source_stamp = current[1], current[2]
+            else:
+                levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
+            brightness = sim.brightness(levels, frames)
+        image = sim.render(brightness)
+        header = self.header("phosphene")
+        msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
+        msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
+        msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
+        msg.data = array.array("B", image.tobytes())
+        frame = PhospheneFrame(header=header, map_id=map_id, mode=sim.config.mode, overlays=list(sim.config.overlays),
+                               temporal=sim.temporal is not None)
+        frame.source_stamp = self.header("", source_stamp).stamp
+        frame.levels = array.array("B", levels.tobytes())
+        frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
+        try:
+            self.pub_image.publish(msg)
+            self.pub_frame.publish(frame)
+        except RCLError:
+            if self.context.ok():
+                raise
+            return                                  # the context ended while this tick ran
+        self._ticks += 1
+        self._tick_ms.append(1e3 * (time.monotonic() - t0))
+
+    def report(self) -> None:
+        """Every 10 s: warn about dropped display frames."""
+        new = self._dropped - self._dropped_reported
+        if new > 0:
+            rate = self.params["rate"]
+            self.get_logger().warning(f"dropped {new} display frames in the last {REPORT_PERIOD_S:.0f} s at {rate:g} Hz "
+                                      f"({self._dropped} since start, {self._ticks} shown)")
+            self._dropped_reported = self._dropped
+
+    def publish_map(self) -> None:
+        sim, map_id = self.sim, self.map_id
+        m, c = sim.map, sim.config
+        msg = PhospheneMap(header=self.header("phosphene"), map_id=map_id, device=c.device.name, width=c.width,
+                           height=c.height, fov_deg=c.device.fov_deg, focal_px=m.focal_px,
+                           phosphene_fov_deg=c.device.phosphene_fov_deg, phosphene_diameter_px=m.diameter_px,
+                           grid=PhospheneMap.GRID_HEXAGONAL if c.device.grid == "hexagonal" else PhospheneMap.GRID_RECTANGULAR,
+                           field=PhospheneMap.FIELD_CIRCULAR if c.device.field == "circular" else PhospheneMap.FIELD_RECTANGULAR,
+                           spacing_x_px=float(m.spacing_x), spacing_y_px=float(m.spacing_y),
+                           num_levels=c.device.num_levels, dropout_ratio=c.device.dropout,
+                           position_noise_px=c.device.noise_px, seed=c.seed)
+        msg.x = array.array("f", m.centres[:, 0].astype(np.float32).tobytes())
+        msg.y = array.array("f", m.centres[:, 1].astype(np.float32).tobytes())
+        msg.display_x = array.array("f", m.display_centres[:, 0].astype(np.float32).tobytes())
+        msg.display_y = array.array("f", m.display_centres[:, 1].astype(np.float32).tobytes())
+        msg.dropped = [bool(d) for d in m.dropped]
+        self.pub_map.publish(msg)
+
+    def close(self) -> None:
+        # rclpy's context may already be shut down here: report with print, not the ROS logger
+        if self._tick_ms:
+            print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "
+                  f"tick median {statistics.median(self._tick_ms):.2f} ms", flush=True)
+
+
+def main(argv=None) -> None:
+    run_node(SpvNode, argv, threads=2)
+
+
+if __name__ == "__main__":
+    main()

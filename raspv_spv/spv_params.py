@@ -1,0 +1,42 @@
+"""Parameters of the `spv` node (imports nothing heavy).
+
+Device values (num_phosphenes … pulse_phase_ms) default to "the device's": 0 for numbers, ""
+for names, −1 for dropout and noise; any other value overrides the ``device`` preset. Every
+parameter can change while the node runs (``raspv param set spv NAME VALUE``): the simulator is
+rebuilt and swapped in at once, or the change is refused with the reason.
+"""
+from raspv_common.params import Param
+from raspv_spv.modes import MODES, OVERLAYS
+
+PARAMS = [
+    Param("device", "default", "device preset (default, argus_ii, argus_iii, alpha_ims, optimist) or a device YAML path"),
+    Param("num_phosphenes", 0, "number of phosphenes N (0: the device's)", minimum=0, maximum=20000),
+    Param("fov_deg", 0.0, "prosthesis horizontal field of view (0: the device's)", minimum=0.0, maximum=160.0, unit="deg"),
+    Param("phosphene_fov_deg", 0.0, "phosphene diameter (0: the device's)", minimum=0.0, maximum=10.0, unit="deg"),
+    Param("grid", "", "lattice ('': the device's)", choices=("", "rectangular", "hexagonal")),
+    Param("field", "", "visual field shape ('': the device's)", choices=("", "rectangular", "circular")),
+    Param("num_levels", 0, "luminance levels N_L, 2..256 (0: the device's)", minimum=0, maximum=256),
+    Param("dropout", -1.0, "fraction of phosphenes that never light (-1: the device's)", minimum=-1.0, maximum=1.0),
+    Param("noise_px", -1.0, "std. dev. of the displayed position noise (-1: the device's)", minimum=-1.0,
+          maximum=200.0, unit="px"),
+    Param("seed", 0, "seed of the dropout and noise draws (one simulated patient)", minimum=0, maximum=2**31 - 1),
+    Param("width", 800, "phosphene image width", minimum=16, maximum=4096, unit="px"),
+    Param("height", 0, "phosphene image height (0: width x the device's aspect ratio)", minimum=0, maximum=4096,
+          unit="px"),
+    Param("mode", "grey", "representation mode", choices=tuple(MODES)),
+    Param("overlays", [], "overlays drawn over the mode, in order", choices=tuple(OVERLAYS)),
+    Param("temporal", True, "temporal model (discretised Horsager 2009 / Nanduri 2012) on or off"),
+    Param("temporal_model", "horsager2009", "continuous model the look-up table is built from",
+          choices=("horsager2009", "nanduri2012")),
+    Param("temporal_sample", "mean", "a frame shows the model's mean over the frame or its value at the frame's end",
+          choices=("mean", "end")),
+    Param("pulse_amplitude_ua", 0.0, "biphasic pulse amplitude of an 'on' frame (0: the device's)", minimum=0.0,
+          maximum=2000.0, unit="uA"),
+    Param("pulse_phase_ms", 0.0, "duration of each pulse phase (0: the device's)", minimum=0.0, maximum=5.0, unit="ms"),
+    Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
+    Param("output_format", "mono8", "/spv/image encoding: mono8, or green (rgb8, green channel only, for headsets)",
+          choices=("mono8", "green")),
+    Param("max_depth", 3.0, "depth mapped to level 0 (depth, edges_depth modes)", minimum=0.1, maximum=20.0, unit="m"),
+    Param("edge_low", 50.0, "Canny lower threshold (edges modes)", minimum=1.0, maximum=1000.0),
+    Param("edge_high", 150.0, "Canny upper threshold (edges modes)", minimum=1.0, maximum=1000.0),
+]
