@@ -131,8 +131,10 @@ class FloorTracker:
                                 cfg.first_floor_min_height, cfg.first_floor_max_height)
 
     def choose(self, candidates: list[FloorCandidate], expectation: FloorExpectation) -> FloorCandidate | None:
-        """The floor among ``candidates`` (largest accepted), or None."""
-        ok = [c for c in candidates if expectation.accepts(c, self.config.min_floor_area)]
+        """The floor among ``candidates`` (largest accepted), or None. A tracked floor needs
+        only ``track_min_floor_area`` in view, a new one ``min_floor_area``."""
+        min_area = self.config.track_min_floor_area if expectation.predicted is not None else self.config.min_floor_area
+        ok = [c for c in candidates if expectation.accepts(c, min_area)]
         return max(ok, key=lambda c: c.area) if ok else None
 
     def update(self, floor: np.ndarray | None, world_from_camera: np.ndarray | None) -> None:

@@ -290,7 +290,7 @@ def grow_planes(samples: CloudSamples, segments: list[PlaneSegment], free: np.nd
 
 
 def slanted_planes(samples: CloudSamples, pool: np.ndarray, config: SceneConfig, max_planes: int = 2,
-                   hypotheses: int = 100, subset: int = 1000, seed: int = 0) -> list[PlaneSegment]:
+                   hypotheses: int = 64, subset: int = 800, seed: int = 0) -> list[PlaneSegment]:
     """Up to ``max_planes`` more planes among ``pool`` (indices of free samples with normals),
     by RANSAC: ``hypotheses`` three-point planes scored on an evenly spaced ``subset`` by inlier
     area, the best refitted on all its inliers."""
@@ -301,12 +301,12 @@ def slanted_planes(samples: CloudSamples, pool: np.ndarray, config: SceneConfig,
         if len(pool) < 30 or samples.area[pool].sum() < config.min_plane_area:
             break
         sub = pool[:: max(1, len(pool) // subset)]
-        P = samples.points[sub].astype(np.float64)
-        N = samples.normals[sub].astype(np.float64)
+        P = samples.points[sub]
+        N = samples.normals[sub]
         A = samples.area[sub]
         T = samples.tolerance[sub]
         tri = rng.integers(0, len(sub), size=(hypotheses, 3))
-        a, b, c = P[tri[:, 0]], P[tri[:, 1]], P[tri[:, 2]]
+        a, b, c = (P[tri[:, i]].astype(np.float64) for i in range(3))
         n = np.cross(b - a, c - a)
         norm = np.linalg.norm(n, axis=1)
         good = norm > 1e-9
@@ -317,8 +317,9 @@ def slanted_planes(samples: CloudSamples, pool: np.ndarray, config: SceneConfig,
         flip = d < 0
         n[flip] *= -1
         d[flip] *= -1
-        dist = np.abs(P @ n.T + d)                      # (subset, hypotheses)
-        agree = (N @ n.T) >= cos_n
+        n32 = n.T.astype(np.float32)
+        dist = np.abs(P @ n32 + d.astype(np.float32))    # (subset, hypotheses)
+        agree = (N @ n32) >= cos_n
         score = ((dist < T[:, None]) & agree).astype(np.float32).T @ A
         best = int(np.argmax(score))
         if score[best] * (len(pool) / len(sub)) < config.min_plane_area:

@@ -24,7 +24,7 @@ class SceneConfig:
     plane_normal_angle_deg: float = 25.0  # an inlier's normal may differ this much from the plane's [deg]
     horizontal_angle_deg: float = 40.0    # plane normal within this of "up": horizontal (authors: 40°) [deg]
     vertical_angle_deg: float = 20.0      # plane normal within this of the horizon: vertical [deg]
-    min_plane_area: float = 0.08          # smaller planar patches are not reported [m²]
+    min_plane_area: float = 0.15          # smaller planar patches are not reported [m²]
     min_wall_area: float = 0.3            # smaller vertical planes are OTHER (box sides, screens) [m²]
     min_wall_top: float = 1.3             # a wall reaches this high above the floor, or the top of the view [m]
 
@@ -33,6 +33,7 @@ class SceneConfig:
     first_floor_min_height: float = 1.0       # camera height range for a first floor [m]
     first_floor_max_height: float = 2.0       # (authors 1.8 m; the TUM frame was taken from 1.81 m) [m]
     min_floor_area: float = 0.5               # visible floor needed to accept a floor [m²]
+    track_min_floor_area: float = 0.1         # a tracked floor may be this small (furniture in front) [m²]
     track_max_angle_deg: float = 15.0         # tracked floor: normal change between frames [deg]
     track_max_height_change: float = 0.08     # tracked floor: camera height change between frames [m]
     track_lost_frames: int = 10               # frames without the tracked floor before starting over
@@ -62,7 +63,7 @@ class SceneConfig:
         for name in positive:
             if not getattr(self, name) > 0:
                 problems.append(f"{name} must be positive, got {getattr(self, name)}")
-        for name in ("min_depth", "plane_distance_quadratic", "min_plane_area", "min_wall_area", "min_floor_area",
+        for name in ("min_depth", "plane_distance_quadratic", "min_plane_area", "min_wall_area", "min_floor_area", "track_min_floor_area",
                      "manhattan_min_area", "min_obstacle_height", "obstacle_margin", "track_max_height_change"):
             if getattr(self, name) < 0:
                 problems.append(f"{name} must not be negative, got {getattr(self, name)}")
