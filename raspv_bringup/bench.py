@@ -9,6 +9,7 @@ import importlib
 
 BENCHES: dict[str, str] = {
     "sim": "raspv_sim.bench",
+    "scene": "raspv_perception.bench",
     "spv": "raspv_spv.bench",
 }
 

@@ -1,0 +1,165 @@
+"""Scene perception speed: the full pipeline per 640×480 depth frame on one core (target ≤ 40 ms median).
+
+Frames: a walk through the sim ``apartment`` (corridor → living room), the analytic synthetic
+room, and the real TUM / NYU / Kinect frames of ``tests/data/rgbd``. Depth is prepared first,
+then only ``ScenePerception.process`` is timed (point cloud → labels), with per-stage medians.
+For comparison the same job done the PCL way with Open3D (voxel grid, normals, RANSAC
+``segment_plane`` until the planes run out, DBSCAN on the rest) runs on the same frames.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import time
+from pathlib import Path
+
+TARGET_MS = 40.0
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rgbd"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--frames", type=int, default=60, help="frames of the apartment and synthetic walks (default 60)")
+    parser.add_argument("--repeat", type=int, default=10, help="timed runs per real frame (default 10)")
+    parser.add_argument("--stride", type=int, default=None, help="pixel stride (default: SceneConfig's)")
+    parser.add_argument("--no-sim", action="store_true", help="skip the apartment walk (no PyBullet rendering)")
+    parser.add_argument("--no-peer", action="store_true", help="skip the Open3D comparison")
+
+
+def _pct(values: list[float], q: float) -> float:
+    v = sorted(values)
+    return v[min(len(v) - 1, int(round(q * (len(v) - 1))))]
+
+
+def _apartment_frames(n: int):
+    from raspv_sim.simulator import SimConfig, Simulation
+
+    frames = []
+    with Simulation("apartment", SimConfig(width=640, height=480)) as sim:
+        steps = max(1, int(200 / max(n, 1)))
+        for i in range(n * steps):
+            sim.step(0.05, 0.8, 0.15 * math.sin(i / 25))
+            if i % steps == 0:
+                f = sim.render()
+                frames.append((f.depth, f.intrinsics, f.world_from_camera))
+    return frames
+
+
+def _synthetic_frames(n: int):
+    from raspv_camera.synthetic_scene import SyntheticRoom
+    from raspv_common.intrinsics import CameraIntrinsics
+
+    K = CameraIntrinsics.from_hfov(640, 480, 60.0)
+    room = SyntheticRoom(K)
+    return [(room.render(room.pose_at(0.25 * i))[1], K, None) for i in range(n)]
+
+
+def _real_frames():
+    from raspv_common.intrinsics import CameraIntrinsics
+    from raspv_common.rgbd_files import read_depth_scaled, read_nyu_disparity
+
+    if not DATA.is_dir():
+        return {}
+    k = CameraIntrinsics(640, 480, 525.0, 525.0, 319.5, 239.5)
+    out = {"TUM desk": [(read_depth_scaled(DATA / "tum_depth.png", 1 / 5000), k, None)],
+           "NYU basement": [(read_nyu_disparity(DATA / "nyu_depth.pgm"), k, None)]}
+    kin = CameraIntrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
+    out["Kinect table (3)"] = [(read_depth_scaled(p, 0.001), kin, None)
+                               for p in sorted((DATA / "kinect_table").glob("*_depth.tiff"))]
+    return out
+
+
+def _time_ours(frames, repeat: int, config) -> tuple[list[float], dict[str, list[float]]]:
+    from raspv_perception.scene_perception import ScenePerception
+
+    perception = ScenePerception(config)
+    totals: list[float] = []
+    stages: dict[str, list[float]] = {}
+    for _ in range(repeat):
+        perception.reset()
+        for depth, K, _pose in frames:
+            t0 = time.perf_counter()
+            perception.process(depth, K)
+            totals.append(1e3 * (time.perf_counter() - t0))
+            for name, ms in perception.timings.items():
+                stages.setdefault(name, []).append(ms)
+    return totals, stages
+
+
+def _time_open3d(frames, max_planes: int = 6) -> list[float]:
+    """The PCL-style pipeline in Open3D: voxel 4 cm, normals from 16 neighbours, segment_plane
+    (0.04 m, 3 points, 300 iterations) until < 5 % of the cloud or ``max_planes``, DBSCAN."""
+    import numpy as np
+    import open3d as o3d
+
+    out = []
+    for depth, K, _pose in frames:
+        t0 = time.perf_counter()
+        pts = K.backproject(np.asarray(depth, dtype=np.float32)).reshape(-1, 3)
+        pts = pts[np.isfinite(pts[:, 2]) & (pts[:, 2] > 0.2) & (pts[:, 2] < 8.0)]
+        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
+        cloud = cloud.voxel_down_sample(0.04)
+        cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(16))
+        rest, n0 = cloud, len(cloud.points)
+        for _ in range(max_planes):
+            if len(rest.points) < max(50, 0.05 * n0):
+                break
+            _, inliers = rest.segment_plane(0.04, 3, 300)
+            rest = rest.select_by_index(inliers, invert=True)
+        if len(rest.points) >= 10:
+            rest.cluster_dbscan(0.05, 10)
+        out.append(1e3 * (time.perf_counter() - t0))
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")       # one core, also for Open3D (read at import)
+    import cv2
+
+    from raspv_perception.scene_config import SceneConfig
+
+    cv2.setNumThreads(1)
+    try:
+        config = SceneConfig() if args.stride is None else SceneConfig(stride=args.stride)
+    except ValueError as exc:
+        print(f"raspv bench scene: {exc}")
+        return 2
+    sources: dict[str, list] = {}
+    if not args.no_sim:
+        try:
+            sources["sim apartment walk"] = _apartment_frames(args.frames)
+        except Exception as exc:             # no renderer here: say so, time the rest
+            print(f"(apartment walk skipped: {exc})")
+    sources["synthetic room walk"] = _synthetic_frames(args.frames)
+    real = _real_frames()
+    sources.update(real)
+    if not real:
+        print(f"(real frames skipped: {DATA} not found)")
+
+    print(f"Scene perception, 640x480 depth, one core (stride {config.stride}); ms per frame")
+    print(f"{'frames':<22}{'n':>5}{'median':>9}{'p90':>8}{'max':>8}   stages (median ms)")
+    all_totals: list[float] = []
+    for name, frames in sources.items():
+        repeat = 1 if len(frames) >= 20 else args.repeat
+        totals, stages = _time_ours(frames, repeat, config)
+        all_totals.extend(totals)
+        stage_text = " ".join(f"{k}={statistics.median(v):.1f}" for k, v in stages.items())
+        print(f"{name:<22}{len(totals):>5}{statistics.median(totals):>9.1f}{_pct(totals, 0.9):>8.1f}"
+              f"{max(totals):>8.1f}   {stage_text}")
+    median = statistics.median(all_totals)
+    verdict = "meets" if median <= TARGET_MS else "MISSES"
+    print(f"{'all':<22}{len(all_totals):>5}{median:>9.1f}{_pct(all_totals, 0.9):>8.1f}{max(all_totals):>8.1f}"
+          f"   -> {verdict} the {TARGET_MS:.0f} ms target")
+    if not args.no_peer:
+        try:
+            peer_frames = [f for frames in sources.values() for f in frames[:: max(1, len(frames) // 8)]]
+            ours, _ = _time_ours(peer_frames, 1, config)
+            peer = _time_open3d(peer_frames)
+        except ImportError as exc:
+            print(f"(Open3D comparison skipped: {exc})")
+        else:
+            print(f"Open3D PCL-style pipeline on {len(peer)} of these frames: median {statistics.median(peer):.1f} ms "
+                  f"(ours {statistics.median(ours):.1f} ms, {statistics.median(peer) / statistics.median(ours):.1f}x faster; "
+                  "theirs gives planes and clusters only: no floor tracking, classes, labels or free floor)")
+    return 0
