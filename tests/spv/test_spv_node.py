@@ -5,7 +5,7 @@ import sys
 
 import numpy as np
 import pytest
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info
@@ -70,6 +70,9 @@ def test_parameters_change_at_run_time_and_bad_values_are_refused(graph, probe):
     m = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=30, qos=LATCHED_QOS,
                                predicate=lambda m: m.device == "argus_ii" and len(m.x) == 60)
     assert m.map_id == 4                 # one rebuild per parameter: argus_ii with 200, then the device's 60
+    [(_, ok, _)] = probe.set_params("spv", {"rate": 30.0})             # a new display timer
+    assert ok
+    probe.collect(topics.SPV_IMAGE, Image, 10, timeout=30)
     assert "Traceback" not in g.output
 
 
@@ -78,8 +81,7 @@ def test_bad_input_is_skipped_with_one_warning_and_display_goes_on(graph, probe)
                "spv": {"ros__parameters": {"mode": "depth", "width": 100, "rate": 20.0}}})
     probe.wait_for_message(topics.SPV_IMAGE, Image, timeout=60)      # displays before any input
     depth_pub = probe.publisher(topics.DEPTH, Image, wait_for_subscribers=1)
-    info_pub = probe.publisher(topics.CAMERA_INFO, type(intrinsics_to_camera_info(CameraIntrinsics.from_hfov(8, 6, 60))),
-                               wait_for_subscribers=1)
+    info_pub = probe.publisher(topics.CAMERA_INFO, CameraInfo, wait_for_subscribers=1)
     cam = CameraIntrinsics.from_hfov(64, 48, 60.0)
     depth = np.full((48, 64), 1.0, np.float32)
     depth[:, :10] = np.nan
