@@ -20,8 +20,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "nodes": ("raspv_bringup.nodes_cli", "list the node kinds and their parameters"),
     "bench": ("raspv_bringup.bench", "benchmarks with figures and ratios against peers"),
     "sim": ("raspv_sim.sim_cli", "world files and logged runs: check, map, render, plot"),
+    "hmd-client": ("raspv_hmd.client_cli", "reference headset client: receive frames, send head motion, measure latency"),
     "teleop": ("raspv_bringup.teleop_cli", "drive the avatar and turn its head from this terminal"),
     "bag": ("raspv_bringup.bag_cli", "record, play, inspect and repair bags; build one from RGB-D image files"),
+    "render": ("raspv_bringup.render_cli", "render a bag into a phosphene video (mp4) and/or PNG frames, offline"),
 }
 
 

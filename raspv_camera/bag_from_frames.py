@@ -416,6 +416,47 @@ class _Serialiser:
         return bytes(self.store.serialize_cdr(msg, "geometry_msgs/msg/PoseStamped"))
 
 
+class RgbdBagWriter:
+    """A new bag with the source topics of the graph (colour rgb8, depth 32FC1, camera info and
+    optionally the camera pose), written from arrays. Used by from-frames, tests and benchmarks."""
+
+    def __init__(self, output: str | Path, storage: str = "mcap", with_pose: bool = False,
+                 frame_id: str = FRAME_ID) -> None:
+        self.ser = _Serialiser()
+        self.frame_id = frame_id
+        self.writer = BagWriter(output, storage, flush_interval_s=None)
+        self.writer.add_topic(T.COLOR, "sensor_msgs/msg/Image", [SENSOR])
+        self.writer.add_topic(T.DEPTH, "sensor_msgs/msg/Image", [SENSOR])
+        self.writer.add_topic(T.CAMERA_INFO, "sensor_msgs/msg/CameraInfo", [SENSOR])
+        if with_pose:
+            self.writer.add_topic(T.CAMERA_POSE, "geometry_msgs/msg/PoseStamped", [SENSOR])
+        self.frames = 0
+
+    def add(self, stamp_s: float, color: np.ndarray | None, depth: np.ndarray | None, camera: CameraIntrinsics,
+            pose: np.ndarray | None = None) -> None:
+        """One frame: ``color`` RGB uint8 (H, W, 3), ``depth`` float32 metres (H, W), both stamped
+        ``stamp_s`` (header and bag time); ``pose`` 4×4 world ← camera optical."""
+        stamp_ns = int(round(stamp_s * 1e9))
+        header = self.ser.header(stamp_ns, self.frame_id)
+        if color is not None:
+            self.writer.write(T.COLOR, stamp_ns, self.ser.image(color, "rgb8", header))
+        if depth is not None:
+            self.writer.write(T.DEPTH, stamp_ns, self.ser.image(np.asarray(depth, np.float32), "32FC1", header))
+        self.writer.write(T.CAMERA_INFO, stamp_ns, self.ser.camera_info(camera, header))
+        if pose is not None:
+            self.writer.write(T.CAMERA_POSE, stamp_ns, self.ser.pose(pose, self.ser.header(stamp_ns, "world")))
+        self.frames += 1
+
+    def close(self) -> None:
+        self.writer.close()
+
+    def __enter__(self) -> "RgbdBagWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, output: Path,
                      storage: str = "mcap", progress: Callable[[int, int], None] | None = None,
                      frame_id: str = FRAME_ID) -> FromFramesReport:
@@ -428,19 +469,13 @@ def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, outp
         hint = f" (this looks like TUM {frames.camera_hint}: --camera {frames.camera_hint})" if frames.camera_hint else ""
         raise FramesError("no camera intrinsics: give --fx --fy --cx --cy, --intrinsics FILE.yaml or --camera "
                           f"{'|'.join(CAMERA_PRESETS)}{hint}")
-    ser = _Serialiser()
     notes = list(frames.notes)
-    written = skipped = with_pose = 0
+    skipped = with_pose = 0
     size: tuple[int, int] | None = None
     cam: CameraIntrinsics | None = None
     resized_note = False
-    writer = BagWriter(output, storage, flush_interval_s=None)
+    out = RgbdBagWriter(output, storage, with_pose=any(p.pose is not None for p in frames.pairs), frame_id=frame_id)
     try:
-        writer.add_topic(T.COLOR, "sensor_msgs/msg/Image", [SENSOR])
-        writer.add_topic(T.DEPTH, "sensor_msgs/msg/Image", [SENSOR])
-        writer.add_topic(T.CAMERA_INFO, "sensor_msgs/msg/CameraInfo", [SENSOR])
-        if any(p.pose is not None for p in frames.pairs):
-            writer.add_topic(T.CAMERA_POSE, "geometry_msgs/msg/PoseStamped", [SENSOR])
         for n, pair in enumerate(frames.pairs):
             if progress is not None:
                 progress(n, len(frames.pairs))
@@ -470,19 +505,12 @@ def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, outp
                 notes.append(f"skipped frame {n}: {w}x{h}, the sequence is {size[0]}x{size[1]} ({pair.color.name})")
                 skipped += 1
                 continue
-            stamp_ns = int(round(pair.stamp_s * 1e9))
-            header = ser.header(stamp_ns, frame_id)
-            writer.write(T.COLOR, stamp_ns, ser.image(color, "rgb8", header))
-            writer.write(T.DEPTH, stamp_ns, ser.image(depth.astype(np.float32), "32FC1", header))
-            writer.write(T.CAMERA_INFO, stamp_ns, ser.camera_info(cam, header))
-            if pair.pose is not None:
-                writer.write(T.CAMERA_POSE, stamp_ns, ser.pose(pair.pose, ser.header(stamp_ns, "world")))
-                with_pose += 1
-            written += 1
+            out.add(pair.stamp_s, color, depth, cam, pair.pose)
+            with_pose += pair.pose is not None
     finally:
-        writer.close()
+        out.close()
     if progress is not None:
         progress(len(frames.pairs), len(frames.pairs))
-    if not written:
+    if not out.frames:
         raise FramesError("no usable frame: " + "; ".join(notes[-3:]))
-    return FromFramesReport(Path(output), written, skipped, size, cam, with_pose, notes)
+    return FromFramesReport(Path(output), out.frames, skipped, size, cam, with_pose, notes)

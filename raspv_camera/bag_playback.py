@@ -188,7 +188,7 @@ class Player:
             return self._anchor_bag
         return self._anchor_bag + int((wall - self._anchor_wall) * self.rate * 1e9)
 
-    def _due(self, ts_ns: int) -> float:
+    def due_time(self, ts_ns: int) -> float:
         """Monotonic time at which bag time ``ts_ns`` is reached (inf while paused)."""
         with self._lock:
             if self._paused:
@@ -200,7 +200,7 @@ class Player:
         period = 1.0 / self.options.clock_rate_hz if self.options.clock_rate_hz > 0 else None
         while not self._stop.is_set():
             now = time.monotonic()
-            due = self._due(ts_ns)
+            due = self.due_time(ts_ns)
             if now >= due:
                 return True
             wait = due - now
@@ -232,7 +232,7 @@ class Player:
                 for msg in self.reader.messages(names, start_ns=self.start_ns):
                     if not self._wait_until(msg.timestamp_ns):
                         break
-                    late = time.monotonic() - self._due(msg.timestamp_ns)
+                    late = time.monotonic() - self.due_time(msg.timestamp_ns)
                     out = self.out_topic[msg.topic]
                     if self._clock is not None:
                         self._clock(msg.timestamp_ns)
@@ -245,7 +245,7 @@ class Player:
                     break
                 loops += 1
                 # The next pass starts one typical message period after this pass's last message.
-                next_start = self._due(last_ts + period_ns)
+                next_start = self.due_time(last_ts + period_ns)
                 with self._lock:
                     self._anchor_wall, self._anchor_bag = next_start, self.start_ns
         finally:

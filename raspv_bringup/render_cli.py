@@ -1,0 +1,111 @@
+"""`raspv render BAG -o out.mp4`: a bag → phosphene video (and/or PNG frames), offline.
+
+Runs the phosphene simulator of the ``spv`` node (:mod:`raspv_camera.bag_render`) as fast as
+the machine allows, with a progress bar.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("bag", help="bag directory or .mcap/.db3 file")
+    parser.add_argument("-o", "--output", metavar="VIDEO", help="mp4 file to write")
+    parser.add_argument("--png-dir", metavar="DIR", help="also (or only) write every frame as a PNG here")
+    parser.add_argument("--device", default="default", help="device preset or YAML file (default: default)")
+    parser.add_argument("--mode", default="grey", help="representation mode (default: grey)")
+    parser.add_argument("--overlay", action="append", default=[], metavar="NAME", help="overlay on top of the mode")
+    parser.add_argument("--width", type=int, default=800, help="phosphene image width [px] (default 800)")
+    parser.add_argument("--rate", type=float, default=50.0, metavar="HZ",
+                        help="display rate = video frame rate = temporal model rate (default 50)")
+    parser.add_argument("--no-temporal", action="store_true", help="without the temporal model")
+    parser.add_argument("--green", action="store_true", help="green phosphenes (as in the headset)")
+    parser.add_argument("--side-by-side", action="store_true",
+                        help="colour image and the mode's other inputs (depth) next to the phosphenes")
+    parser.add_argument("--max-depth", type=float, default=None, metavar="M", help="depth mode: depth shown as level 0")
+    parser.add_argument("--dropout", type=float, default=None, help="fraction of phosphenes that never light")
+    parser.add_argument("--noise", type=float, default=None, metavar="PX", help="displayed position noise [px]")
+    parser.add_argument("--seed", type=int, default=0, help="seed of dropout and noise (default 0)")
+    parser.add_argument("--start", type=float, default=0.0, metavar="S", help="start S seconds into the bag")
+    parser.add_argument("--duration", type=float, default=None, metavar="S", help="render at most S seconds")
+    cam = parser.add_argument_group("intrinsics when the bag has no camera info")
+    cam.add_argument("--intrinsics", metavar="FILE", help="YAML with fx, fy, cx, cy (or a ROS calibration file)")
+    for k in ("fx", "fy", "cx", "cy"):
+        cam.add_argument(f"--{k}", type=float, default=None, help=f"{k} [px]")
+    parser.add_argument("--color-topic", default=None, help="colour topic (default /camera/color/image_raw)")
+    parser.add_argument("--depth-topic", default=None, help="depth topic (default /camera/depth/image_raw)")
+    parser.add_argument("--info-topic", default=None, help="camera info topic (default /camera/color/camera_info)")
+
+
+def _bar(done: float, total: float, started: float, width: int = 30) -> str:
+    frac = min(1.0, done / total) if total > 0 else 1.0
+    n = int(round(frac * width))
+    elapsed = time.monotonic() - started
+    speed = done / elapsed if elapsed > 0 else 0.0
+    return f"\r[{'#' * n}{'.' * (width - n)}] {done:6.1f}/{total:.1f} s of bag  {speed:5.1f}x real time"
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_camera.bag_from_frames import FramesError, load_intrinsics_file
+    from raspv_camera.bag_reader import BagError
+    from raspv_camera.bag_render import RenderError, RenderSettings, render_bag
+
+    def fail(text: str) -> int:
+        print(f"raspv render: {text}", file=sys.stderr)
+        return 1
+
+    if not args.output and not args.png_dir:
+        return fail("give an output: -o out.mp4 and/or --png-dir DIR")
+    if args.output and Path(args.output).suffix.lower() != ".mp4":
+        return fail(f"{args.output}: the video must be an .mp4 file")
+    given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
+    if given and len(given) < 4:
+        return fail("give all of --fx --fy --cx --cy")
+    intrinsics = None
+    if given:
+        intrinsics = {k: getattr(args, k) for k in ("fx", "fy", "cx", "cy")}
+    elif args.intrinsics:
+        try:
+            intrinsics = load_intrinsics_file(Path(args.intrinsics))
+        except FramesError as exc:
+            return fail(str(exc))
+    spv: dict = {"seed": args.seed}
+    if args.max_depth is not None:
+        spv["mode_settings"] = {"max_depth": args.max_depth}
+    if args.dropout is not None:
+        spv["dropout"] = args.dropout
+    if args.noise is not None:
+        spv["noise_px"] = args.noise
+    s = RenderSettings(device=args.device, mode=args.mode, overlays=tuple(args.overlay), width=args.width,
+                       display_rate=args.rate, temporal=not args.no_temporal,
+                       output_format="green" if args.green else "mono8", spv=spv,
+                       side_by_side=args.side_by_side, start_s=args.start, duration_s=args.duration,
+                       intrinsics=intrinsics)
+    for attr in ("color_topic", "depth_topic", "info_topic"):
+        if getattr(args, attr):
+            setattr(s, attr, getattr(args, attr))
+    tty = sys.stderr.isatty()
+    started = time.monotonic()
+
+    def progress(done: float, total: float) -> None:
+        if tty:
+            print(_bar(done, total, started), end="", file=sys.stderr, flush=True)
+
+    try:
+        report = render_bag(args.bag, args.output, args.png_dir, s, progress)
+    except (RenderError, BagError) as exc:
+        if tty:
+            print(file=sys.stderr)
+        return fail(str(exc))
+    if tty:
+        print(file=sys.stderr)
+    for note in report.notes:
+        print(f"note: {note}", file=sys.stderr)
+    outputs = " and ".join(str(p) for p in (report.video, report.png_dir) if p is not None)
+    print(f"{outputs}: {report.frames} frames {report.size[0]}x{report.size[1]} at {args.rate:g} Hz from "
+          f"{report.camera_frames} camera frames ({report.bag_s:.1f} s of bag in {report.wall_s:.1f} s, "
+          f"{report.speed:.1f}x real time)")
+    return 0

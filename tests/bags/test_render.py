@@ -1,0 +1,126 @@
+"""Offline rendering of bags: the live simulator's output, frame counts, video and PNGs, bad input."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from raspv_bringup.cli import main as raspv
+from raspv_camera.bag_from_frames import discover_frames, write_frames_bag
+from raspv_camera.bag_reader import BagError
+from raspv_camera.bag_render import RenderError, RenderSettings, render_bag
+from raspv_camera.bag_writer import BagWriter
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_spv.simulator import render_frame
+
+from .conftest import make_rgbd_bag
+
+SMALL = dict(width=200)  # a 200×200 phosphene image keeps the tests fast
+
+
+def _video_frames(path):
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    while True:
+        ok, f = cap.read()
+        if not ok:
+            break
+        frames.append(f)
+    cap.release()
+    return frames
+
+
+def test_mp4_has_one_frame_per_display_tick_and_plays_back(rgbd_bag, tmp_path):
+    report = render_bag(rgbd_bag, tmp_path / "out.mp4", settings=RenderSettings(**SMALL))
+    # 12 frames at 10 Hz span 1.1 s; display ticks every 20 ms from the first frame: 56 ticks
+    assert report.frames == 56 and report.camera_frames == 12
+    frames = _video_frames(tmp_path / "out.mp4")
+    assert len(frames) == 56 and frames[0].shape == (200, 200, 3)
+    assert frames[-1].max() > 60  # phosphenes lit once the temporal model has risen
+
+
+def test_frames_are_the_live_simulators_images(rgbd_bag, tmp_path):
+    """Without the temporal model, tick 0 is exactly what the spv core makes of frame 0."""
+    from raspv_camera.bag_reader import BagReader
+    from raspv_common import topics as T
+    from raspv_common.conversions import rgb_from_image
+
+    report = render_bag(rgbd_bag, None, tmp_path / "png", RenderSettings(temporal=False, **SMALL))
+    pngs = sorted((tmp_path / "png").glob("*.png"))
+    assert len(pngs) == report.frames == 56
+    with BagReader(rgbd_bag) as r:
+        color = rgb_from_image(r.decode(next(r.messages([T.COLOR]))))
+    cam = CameraIntrinsics.from_hfov(64, 48, 60.0)
+    expected = render_frame(color, None, cam, temporal=False, width=200)
+    np.testing.assert_array_equal(cv2.imread(str(pngs[0]), cv2.IMREAD_UNCHANGED), expected)
+
+
+def test_side_by_side_shows_colour_and_depth_next_to_the_phosphenes(rgbd_bag, tmp_path):
+    report = render_bag(rgbd_bag, tmp_path / "s.mp4", settings=RenderSettings(mode="depth", side_by_side=True,
+                                                                              duration_s=0.2, **SMALL))
+    # colour 64x48 and depth scaled to 200 px high (267 px wide each) + 200 px of phosphenes
+    assert report.size == (267 + 267 + 200, 200)
+    assert _video_frames(tmp_path / "s.mp4")[0].shape == (200, 734, 3)
+
+
+def test_real_frames_render_through_from_frames(data_dir, tmp_path):
+    frames = discover_frames(data_dir / "rgbd" / "kinect_table")
+    write_frames_bag(frames, {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}, tmp_path / "bag")
+    report = render_bag(tmp_path / "bag", tmp_path / "real.mp4", settings=RenderSettings(mode="depth", **SMALL))
+    assert report.frames == len(_video_frames(tmp_path / "real.mp4")) == 26  # 0.518 s at 50 Hz
+
+
+def test_missing_camera_info_needs_intrinsics(tmp_path):
+    from raspv_camera.bag_from_frames import _Serialiser
+
+    ser = _Serialiser()
+    with BagWriter(tmp_path / "noinfo") as w:
+        w.add_topic("/camera/color/image_raw", "sensor_msgs/msg/Image")
+        for i in range(5):
+            w.write("/camera/color/image_raw", 10**9 + i * 10**8,
+                    ser.image(np.full((48, 64, 3), 100, np.uint8), "rgb8", ser.header(10**9 + i * 10**8, "c")))
+    with pytest.raises(RenderError, match="no camera info.*intrinsics"):
+        render_bag(tmp_path / "noinfo", tmp_path / "a.mp4", settings=RenderSettings(**SMALL))
+    report = render_bag(tmp_path / "noinfo", tmp_path / "b.mp4",
+                        settings=RenderSettings(intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}, **SMALL))
+    assert report.frames == 21
+    with pytest.raises(RenderError, match="needs depth images but the bag has no /camera/depth/image_raw"):
+        render_bag(tmp_path / "noinfo", tmp_path / "c.mp4",
+                   settings=RenderSettings(mode="depth", intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}))
+
+
+def test_mismatched_depth_size_is_resampled_or_skipped(tmp_path):
+    from raspv_camera.bag_from_frames import RgbdBagWriter
+
+    cam = CameraIntrinsics.from_hfov(64, 48, 60.0)
+    with RgbdBagWriter(tmp_path / "mix") as out:
+        out.add(1.0, np.full((48, 64, 3), 90, np.uint8), np.full((24, 32), 1.0, np.float32), cam)   # half size
+        out.add(1.1, np.full((48, 64, 3), 90, np.uint8), np.full((48, 20), 1.0, np.float32), cam)   # other shape
+        out.add(1.2, np.full((48, 64, 3), 90, np.uint8), np.full((48, 64), 1.0, np.float32), cam)
+    report = render_bag(tmp_path / "mix", tmp_path / "m.mp4",
+                        settings=RenderSettings(mode="depth", side_by_side=True, **SMALL))
+    assert report.camera_frames == 2
+    assert any("resampled" in n for n in report.notes) and any("differ in shape" in n for n in report.notes)
+
+
+def test_bad_requests_are_refused(rgbd_bag, tmp_path):
+    with pytest.raises(RenderError, match="give an output"):
+        render_bag(rgbd_bag)
+    with pytest.raises(RenderError, match="unknown mode"):
+        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(mode="nonsense"))
+    with pytest.raises(RenderError, match="past the end"):
+        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(start_s=10.0, **SMALL))
+    with pytest.raises(BagError, match="no such bag"):
+        render_bag(tmp_path / "missing", tmp_path / "x.mp4")
+
+
+def test_command_line(tmp_path, capsys):
+    bag = make_rgbd_bag(tmp_path / "bag", frames=5)
+    assert raspv(["render", str(bag), "-o", str(tmp_path / "o.mp4"), "--width", "160", "--mode", "depth",
+                  "--green", "--side-by-side"]) == 0
+    out = capsys.readouterr().out
+    assert "21 frames" in out and "x real time" in out
+    assert raspv(["render", str(bag), "-o", str(tmp_path / "o.avi")]) == 1
+    assert "must be an .mp4 file" in capsys.readouterr().err
+    assert raspv(["render", str(tmp_path / "nope"), "-o", str(tmp_path / "n.mp4")]) == 1
+    assert "raspv render:" in capsys.readouterr().err
