@@ -1,0 +1,486 @@
+// RASPV headset client: shows the phosphene stream, sends head orientation, body motion and
+// mode keys back to the bridge (protocol reference: docs/hmd.md). Plain JS, no dependencies.
+//
+// URL options: ?token=… (required when the bridge is not on loopback), role=watch,
+// stereo=1, green=1, format=raw|png, overlay=0.
+// Frames: head orientation relative to the avatar base (x forward, y left, z up); roll/pitch/yaw
+// in radians, pitch > 0 looks down, yaw > 0 looks left.
+"use strict";
+(() => {
+  const HEADER_BYTES = 40;
+  const FORMAT_RAW = 0, FORMAT_PNG = 1;
+  const WINDOW = 2;                          // frames in flight before an ack
+  const LINEAR = 0.5, ANGULAR = 1.0;         // m/s, rad/s (Shift doubles them)
+  const TWIST_PERIOD_MS = 100;               // resend while moving (the bridge stops after 0.5 s)
+  const DRAG_RAD_PER_PX = 0.25 * Math.PI / 180;
+  const MAX_YAW = Math.PI / 2, MAX_PITCH = Math.PI / 3;
+  const STICK_DEADZONE = 0.15, STICK_HEAD_RATE = Math.PI / 2;   // rad/s at full deflection
+  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,0123456789".split(""));
+  const MOVE_KEYS = {
+    w: [1, 0], arrowup: [1, 0], s: [-1, 0], arrowdown: [-1, 0],
+    a: [0, 1], arrowleft: [0, 1], d: [0, -1], arrowright: [0, -1],
+  };
+
+  const params = new URLSearchParams(location.search);
+  const $ = (id) => document.getElementById(id);
+  const view = $("view");
+  const ctx = view.getContext("2d", { alpha: false });
+  const frameCanvas = document.createElement("canvas");       // the newest decoded frame
+  const frameCtx = frameCanvas.getContext("2d");
+
+  // Everything the page knows; exposed read-only for tests and curious users.
+  const S = {
+    connected: false, role: null, clientId: null, format: null, closedFor: null,
+    stereo: params.get("stereo") === "1", green: params.get("green") === "1",
+    framesReceived: 0, framesShown: 0, lastShownSeq: 0, size: null,
+    rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
+    head: { roll: 0, pitch: 0, yaw: 0 }, twist: { linear: 0, angular: 0 },
+    lastStatus: "", xr: false, orientation: false,
+  };
+  window.raspvClient = S;
+
+  let ws = null, pending = null, decoding = false, readySeq = 0, readyMeta = null;
+  let headDirty = false, lastTwistSent = 0, xrSession = null, xrGl = null;
+  let clockOffset = null, bestRtt = Infinity;
+  const rtts = [];
+  const keysDown = new Set();
+  let shift = false, stickHead = [0, 0], stickBody = [0, 0], lastTick = performance.now();
+
+  // ---- connection -------------------------------------------------------------------------
+  function connect() {
+    const scheme = location.protocol === "https:" ? "wss:" : "ws:";
+    ws = new WebSocket(`${scheme}//${location.host}/ws`);
+    ws.binaryType = "arraybuffer";
+    setState("connecting…", "");
+    ws.onopen = () => {
+      send({ type: "hello", protocol: 1, token: params.get("token") || "", name: navigator.userAgent.slice(0, 60),
+             role: params.get("role") === "watch" ? "watch" : "control",
+             format: params.get("format") || "auto", window: WINDOW });
+    };
+    ws.onmessage = (ev) => (typeof ev.data === "string" ? onText(ev.data) : onFrame(ev.data));
+    ws.onclose = () => {
+      S.connected = false; S.role = null;
+      if (S.closedFor) { setState(`disconnected: ${S.closedFor}`, "bad"); return; }
+      setState("disconnected — retrying", "bad");
+      setTimeout(connect, 1000);
+    };
+  }
+
+  function send(obj) {
+    if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(obj));
+  }
+
+  function onText(text) {
+    let m;
+    try { m = JSON.parse(text); } catch (e) { return; }
+    if (m.type === "welcome") {
+      S.connected = true; S.clientId = m.client_id; S.format = m.format; setRole(m.role);
+    } else if (m.type === "role") {
+      setRole(m.role);
+    } else if (m.type === "pong") {
+      const now = performance.now(), rtt = now - m.t;
+      rtts.push(rtt); if (rtts.length > 10) rtts.shift();
+      S.rttMs = median(rtts);
+      if (rtt <= bestRtt * 1.5 || clockOffset === null) {      // NTP-style offset from a fast exchange
+        bestRtt = Math.min(bestRtt, rtt);
+        clockOffset = m.server_time - (Date.now() - rtt / 2) / 1000;
+      }
+    } else if (m.type === "status") {
+      showMessage(m.text, m.ok !== false);
+    } else if (m.type === "refused") {
+      showMessage(`refused (${m.code}): ${m.reason}`, false);
+    } else if (m.type === "bye") {
+      if (/token|full/.test(m.reason)) S.closedFor = m.reason;
+      showMessage(`server: ${m.reason}`, false);
+    }
+  }
+
+  function setRole(role) {
+    S.role = role;
+    setState(role === "control" ? "connected — controlling" : "connected — watching", role === "control" ? "ok" : "watch");
+  }
+
+  function onFrame(buf) {
+    if (buf.byteLength < HEADER_BYTES) return;
+    S.framesReceived++;
+    pending = buf;                              // newer frames replace ones not yet decoded
+  }
+
+  // ---- decoding ---------------------------------------------------------------------------
+  const GREY = new Uint32Array(256), GREEN = new Uint32Array(256);
+  for (let v = 0; v < 256; v++) { GREY[v] = 0xff000000 | (v << 16) | (v << 8) | v; GREEN[v] = 0xff000000 | (v << 8); }
+
+  function decodePending() {
+    if (!pending || decoding) return;
+    const buf = pending; pending = null;
+    const dv = new DataView(buf);
+    const magic = String.fromCharCode(...new Uint8Array(buf, 0, 4));
+    if (magic !== "RSPV") return;
+    const fmt = dv.getUint8(5), channels = dv.getUint8(6);
+    const w = dv.getUint32(8, true), h = dv.getUint32(12, true), seq = dv.getUint32(16, true);
+    const n = dv.getUint32(20, true), stamp = dv.getFloat64(24, true), sent = dv.getFloat64(32, true);
+    const meta = { seq, w, h, stamp, sent, fmt };
+    if (fmt === FORMAT_RAW) {
+      if (n !== w * h * channels) return;
+      setFrameSize(w, h);
+      const img = frameCtx.createImageData(w, h);
+      const out = new Uint32Array(img.data.buffer), src = new Uint8Array(buf, HEADER_BYTES, n);
+      if (channels === 1) {
+        const lut = S.green ? GREEN : GREY;
+        for (let i = 0; i < out.length; i++) out[i] = lut[src[i]];
+      } else {
+        const g = S.green;
+        for (let i = 0, j = 0; i < out.length; i++, j += 3) {
+          out[i] = g ? 0xff000000 | (src[j + 1] << 8) : 0xff000000 | (src[j + 2] << 16) | (src[j + 1] << 8) | src[j];
+        }
+      }
+      frameCtx.putImageData(img, 0, 0);
+      ready(meta);
+    } else if (fmt === FORMAT_PNG) {
+      decoding = true;
+      createImageBitmap(new Blob([new Uint8Array(buf, HEADER_BYTES, n)], { type: "image/png" })).then((bmp) => {
+        setFrameSize(w, h);
+        frameCtx.globalCompositeOperation = "copy";
+        frameCtx.drawImage(bmp, 0, 0);
+        bmp.close();
+        if (S.green) {                            // keep only the green channel
+          frameCtx.globalCompositeOperation = "multiply";
+          frameCtx.fillStyle = "#00ff00";
+          frameCtx.fillRect(0, 0, w, h);
+        }
+        frameCtx.globalCompositeOperation = "source-over";
+        ready(meta);
+      }).catch(() => showMessage("a PNG frame could not be decoded", false))
+        .finally(() => { decoding = false; });
+    }
+  }
+
+  function setFrameSize(w, h) {
+    if (frameCanvas.width !== w || frameCanvas.height !== h) { frameCanvas.width = w; frameCanvas.height = h; }
+    S.size = `${w}×${h}`;
+  }
+
+  function ready(meta) { readySeq = meta.seq; readyMeta = meta; }
+
+  // ---- drawing ----------------------------------------------------------------------------
+  function resize() {
+    const dpr = window.devicePixelRatio || 1;
+    const w = Math.round(view.clientWidth * dpr), h = Math.round(view.clientHeight * dpr);
+    if (view.width !== w || view.height !== h) { view.width = w; view.height = h; }
+  }
+
+  function fit(x, y, w, h) {                     // the frame scaled into a box, centred
+    const s = Math.min(w / frameCanvas.width, h / frameCanvas.height);
+    const dw = frameCanvas.width * s, dh = frameCanvas.height * s;
+    return [x + (w - dw) / 2, y + (h - dh) / 2, dw, dh];
+  }
+
+  function present() {
+    if (readySeq <= S.lastShownSeq && !viewDirty) return;
+    viewDirty = false;
+    resize();
+    ctx.fillStyle = "#000";
+    ctx.fillRect(0, 0, view.width, view.height);
+    if (readyMeta) {
+      ctx.imageSmoothingEnabled = true;
+      if (S.stereo) {
+        const half = view.width / 2;
+        ctx.drawImage(frameCanvas, ...fit(0, 0, half, view.height));
+        ctx.drawImage(frameCanvas, ...fit(half, 0, half, view.height));
+      } else {
+        ctx.drawImage(frameCanvas, ...fit(0, 0, view.width, view.height));
+      }
+    }
+    shown();
+  }
+
+  function shown() {
+    if (!readyMeta || readySeq <= S.lastShownSeq) return;
+    S.lastShownSeq = readySeq;
+    S.framesShown++;
+    fpsCount++;
+    if (clockOffset !== null) S.ageMs = Date.now() - (readyMeta.stamp - clockOffset) * 1000;
+    send({ type: "ack", seq: readySeq });
+  }
+  let viewDirty = true, fpsCount = 0, fpsSince = performance.now();
+
+  // ---- head -------------------------------------------------------------------------------
+  function clamp(v, lo, hi) { return Math.max(lo, Math.min(hi, v)); }
+
+  function setHead(roll, pitch, yaw) {
+    S.head = { roll, pitch: clamp(pitch, -MAX_PITCH, MAX_PITCH), yaw: clamp(yaw, -MAX_YAW, MAX_YAW) };
+    headDirty = true;
+  }
+
+  let drag = null;
+  view.addEventListener("pointerdown", (e) => {
+    if (S.orientation) return;
+    drag = { x: e.clientX, y: e.clientY };
+    view.setPointerCapture(e.pointerId);
+    view.classList.add("dragging");
+    view.focus();
+  });
+  view.addEventListener("pointermove", (e) => {
+    if (!drag) return;
+    const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
+    drag = { x: e.clientX, y: e.clientY };
+    // mouse-look: moving right looks right (yaw decreases), moving down looks down (pitch grows)
+    setHead(0, S.head.pitch + dy * DRAG_RAD_PER_PX, S.head.yaw - dx * DRAG_RAD_PER_PX);
+  });
+  const endDrag = () => { drag = null; view.classList.remove("dragging"); };
+  view.addEventListener("pointerup", endDrag);
+  view.addEventListener("pointercancel", endDrag);
+
+  // Device orientation (phones in a viewer): W3C Z-X'-Y'' angles → head relative to the heading
+  // the phone had when enabled (or at 'r').
+  const qmul = (a, b) => [
+    a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1],
+    a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0],
+    a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3],
+    a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]];
+  const axisAngle = (ax, ay, az, a) => [ax * Math.sin(a / 2), ay * Math.sin(a / 2), az * Math.sin(a / 2), Math.cos(a / 2)];
+  const DEVICE_TO_HEAD = [-0.5, 0.5, 0.5, 0.5];    // head x = −device z, y = −device x, z = device y
+  let headingOffset = null;
+
+  function orientationQuaternion(alpha, beta, gamma, screenAngle) {
+    const d = Math.PI / 180, x = beta * d / 2, y = gamma * d / 2, z = alpha * d / 2;
+    const cX = Math.cos(x), cY = Math.cos(y), cZ = Math.cos(z), sX = Math.sin(x), sY = Math.sin(y), sZ = Math.sin(z);
+    let q = [sX * cY * cZ - cX * sY * sZ, cX * sY * cZ + sX * cY * sZ, cX * cY * sZ + sX * sY * cZ, cX * cY * cZ - sX * sY * sZ];
+    q = qmul(q, axisAngle(0, 0, 1, -screenAngle * d));       // screen rotated to landscape
+    return qmul(q, DEVICE_TO_HEAD);                           // earth ← head
+  }
+  const yawOf = (q) => Math.atan2(2 * (q[3] * q[2] + q[0] * q[1]), 1 - 2 * (q[1] * q[1] + q[2] * q[2]));
+
+  function onOrientation(e) {
+    if (!S.orientation || e.alpha === null || e.beta === null || e.gamma === null) return;
+    const angle = (screen.orientation && screen.orientation.angle) || window.orientation || 0;
+    const q = orientationQuaternion(e.alpha, e.beta, e.gamma, angle);
+    if (headingOffset === null) headingOffset = yawOf(q);
+    const rel = qmul(axisAngle(0, 0, 1, -headingOffset), q);
+    S.head = { quaternion: rel };
+    sendHead({ type: "head", q: rel });
+  }
+
+  async function toggleOrientation() {
+    if (!S.orientation && typeof DeviceOrientationEvent.requestPermission === "function") {
+      try { if (await DeviceOrientationEvent.requestPermission() !== "granted") return; } catch (e) { return; }
+    }
+    S.orientation = !S.orientation;
+    headingOffset = null;
+    $("orient").setAttribute("aria-pressed", String(S.orientation));
+  }
+
+  function sendHead(msg) {
+    if (S.role !== "control") return;
+    send(msg);
+    S.headsSent++;
+  }
+
+  // ---- body -------------------------------------------------------------------------------
+  function currentTwist() {
+    let f = 0, t = 0;
+    for (const k of keysDown) { const m = MOVE_KEYS[k]; if (m) { f += m[0]; t += m[1]; } }
+    const gain = shift ? 2 : 1;
+    let linear = clamp(f, -1, 1) * LINEAR * gain, angular = clamp(t, -1, 1) * ANGULAR * gain;
+    if (linear === 0 && angular === 0) { linear = stickBody[0] * LINEAR * 2; angular = stickBody[1] * ANGULAR * 2; }
+    return { linear, angular };
+  }
+
+  function updateTwist(now) {
+    const tw = currentTwist();
+    const moving = tw.linear !== 0 || tw.angular !== 0;
+    const changed = tw.linear !== S.twist.linear || tw.angular !== S.twist.angular;
+    if (S.role === "control" && (changed || (moving && now - lastTwistSent >= TWIST_PERIOD_MS))) {
+      send({ type: "twist", linear: tw.linear, angular: tw.angular });
+      S.twistsSent++;
+      lastTwistSent = now;
+    }
+    S.twist = tw;
+  }
+
+  const dead = (v) => (Math.abs(v) < STICK_DEADZONE ? 0 : v);
+  function pollGamepads(dt) {
+    stickBody = [0, 0]; stickHead = [0, 0];
+    const pads = navigator.getGamepads ? Array.from(navigator.getGamepads()).filter(Boolean) : [];
+    if (xrSession) for (const src of xrSession.inputSources) if (src.gamepad) pads.push(src.gamepad);
+    for (const p of pads) {
+      const xrPad = p.mapping === "xr-standard";
+      const [lx, ly] = xrPad ? [p.axes[2] || 0, p.axes[3] || 0] : [p.axes[0] || 0, p.axes[1] || 0];
+      if (dead(lx) || dead(ly)) stickBody = [-dead(ly), -dead(lx)];
+      if (!xrPad && p.axes.length >= 4 && (dead(p.axes[2]) || dead(p.axes[3]))) stickHead = [dead(p.axes[2]), dead(p.axes[3])];
+    }
+    if ((stickHead[0] || stickHead[1]) && !S.orientation && !xrSession) {
+      setHead(0, S.head.pitch + stickHead[1] * STICK_HEAD_RATE * dt, S.head.yaw - stickHead[0] * STICK_HEAD_RATE * dt);
+    }
+  }
+
+  // ---- keyboard ---------------------------------------------------------------------------
+  window.addEventListener("keydown", (e) => {
+    if (e.ctrlKey || e.metaKey || e.altKey) return;
+    shift = e.shiftKey;
+    const k = e.key.length === 1 ? e.key : e.key.toLowerCase();      // "ArrowUp" → "arrowup"
+    if (MOVE_KEYS[k.toLowerCase()]) { keysDown.add(k.toLowerCase()); e.preventDefault(); return; }
+    if (e.repeat) return;
+    if (k === " ") { keysDown.clear(); e.preventDefault(); return; }
+    if (VIEWER_KEYS.has(k)) {
+      if (S.role === "control") { send({ type: "key", key: k }); S.keysSent++; } else showMessage("watching: keys go to the controlling client", false);
+      e.preventDefault(); return;
+    }
+    if (k === "g") toggle("green");
+    else if (k === "x") toggle("stereo");
+    else if (k === "f") fullscreen();
+    else if (k === "h") toggleHelp();
+    else if (k === "r") { headingOffset = null; setHead(0, 0, 0); }
+    else if (k === "c") send({ type: "control", want: S.role !== "control" });
+  });
+  window.addEventListener("keyup", (e) => {
+    shift = e.shiftKey;
+    keysDown.delete(e.key.toLowerCase());
+  });
+  window.addEventListener("blur", () => keysDown.clear());      // never keep walking unattended
+
+  function toggle(name) {
+    S[name] = !S[name];
+    $(name).setAttribute("aria-pressed", String(S[name]));
+    viewDirty = true;                          // green applies from the next decoded frame
+  }
+  function toggleHelp() { $("help").hidden = !$("help").hidden; }
+  function fullscreen() {
+    if (document.fullscreenElement) document.exitFullscreen(); else document.documentElement.requestFullscreen().catch(() => {});
+  }
+
+  // ---- WebXR ------------------------------------------------------------------------------
+  async function setupXR() {
+    if (!navigator.xr || !navigator.xr.isSessionSupported) return;
+    try { if (!(await navigator.xr.isSessionSupported("immersive-vr"))) return; } catch (e) { return; }
+    $("vr").hidden = false;
+  }
+
+  async function enterXR() {
+    if (xrSession) { xrSession.end(); return; }
+    try {
+      const session = await navigator.xr.requestSession("immersive-vr", { optionalFeatures: ["local"] });
+      const glCanvas = document.createElement("canvas");
+      const gl = glCanvas.getContext("webgl", { xrCompatible: true, alpha: false });
+      if (!gl) throw new Error("no WebGL");
+      if (gl.makeXRCompatible) await gl.makeXRCompatible();
+      session.updateRenderState({ baseLayer: new XRWebGLLayer(session, gl) });
+      const space = await session.requestReferenceSpace("local");
+      xrGl = makeQuadRenderer(gl);
+      xrSession = session; S.xr = true;
+      $("vr").textContent = "Exit VR";
+      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
+      const onXRFrame = (t, frame) => {
+        if (!xrSession) return;
+        session.requestAnimationFrame(onXRFrame);
+        const pose = frame.getViewerPose(space);
+        if (pose) {
+          const o = pose.transform.orientation;
+          sendHead({ type: "head", q: [o.x, o.y, o.z, o.w], frame: "xr" });      // every XR frame
+        }
+        step(t);
+        const layer = session.renderState.baseLayer;
+        gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
+        gl.clearColor(0, 0, 0, 1); gl.clear(gl.COLOR_BUFFER_BIT);
+        if (readyMeta && pose) {
+          xrGl.upload(frameCanvas);
+          for (const v of pose.views) { const vp = layer.getViewport(v); xrGl.draw(vp.x, vp.y, vp.width, vp.height); }
+        }
+        shown();
+      };
+      session.requestAnimationFrame(onXRFrame);
+    } catch (e) {
+      showMessage(`VR session failed: ${e.message || e}`, false);
+    }
+  }
+
+  function makeQuadRenderer(gl) {              // one textured quad filling each eye's viewport
+    const sh = (type, src) => { const s = gl.createShader(type); gl.shaderSource(s, src); gl.compileShader(s); return s; };
+    const prog = gl.createProgram();
+    gl.attachShader(prog, sh(gl.VERTEX_SHADER, "attribute vec2 p; varying vec2 uv; void main(){ uv = vec2(p.x + 1.0, 1.0 - p.y) * 0.5; gl_Position = vec4(p, 0.0, 1.0); }"));
+    gl.attachShader(prog, sh(gl.FRAGMENT_SHADER, "precision mediump float; varying vec2 uv; uniform sampler2D t; void main(){ gl_FragColor = texture2D(t, uv); }"));
+    gl.linkProgram(prog);
+    const buf = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, buf);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 1, -1, -1, 1, 1, 1]), gl.STATIC_DRAW);
+    const tex = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, tex);
+    for (const [k, v] of [[gl.TEXTURE_MIN_FILTER, gl.LINEAR], [gl.TEXTURE_MAG_FILTER, gl.LINEAR], [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) gl.texParameteri(gl.TEXTURE_2D, k, v);
+    let uploaded = 0;
+    return {
+      upload(source) {
+        if (uploaded === readySeq) return;
+        gl.bindTexture(gl.TEXTURE_2D, tex);
+        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA, gl.RGBA, gl.UNSIGNED_BYTE, source);
+        uploaded = readySeq;
+      },
+      draw(x, y, w, h) {
+        gl.viewport(x, y, w, h);
+        gl.useProgram(prog);
+        gl.bindBuffer(gl.ARRAY_BUFFER, buf);
+        const loc = gl.getAttribLocation(prog, "p");
+        gl.enableVertexAttribArray(loc);
+        gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
+        gl.bindTexture(gl.TEXTURE_2D, tex);
+        gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+      },
+    };
+  }
+
+  // ---- status -----------------------------------------------------------------------------
+  function setState(text, cls) { const el = $("state"); el.textContent = text; el.className = cls; }
+  function showMessage(text, ok) { S.lastStatus = text; const el = $("message"); el.textContent = text; el.className = ok ? "" : "bad"; }
+  function median(a) { const s = [...a].sort((x, y) => x - y); return s[Math.floor(s.length / 2)]; }
+
+  function updateStatus(now) {
+    if (now - fpsSince >= 1000) { S.fps = fpsCount * 1000 / (now - fpsSince); fpsCount = 0; fpsSince = now; }
+    const parts = [];
+    if (S.size) parts.push(`${S.size} ${S.format || ""}`);
+    parts.push(`${S.fps.toFixed(1)} fps`);
+    if (S.rttMs !== null) parts.push(`RTT ${S.rttMs.toFixed(1)} ms`);
+    if (S.ageMs !== null) parts.push(`frame age ${Math.max(0, S.ageMs).toFixed(0)} ms`);
+    $("rates").textContent = parts.join(" · ");
+  }
+
+  // ---- main loop --------------------------------------------------------------------------
+  function step(now) {
+    const dt = Math.min(0.1, (now - lastTick) / 1000);
+    lastTick = now;
+    pollGamepads(dt);
+    updateTwist(now);
+    if (headDirty && !S.orientation && !xrSession) {
+      sendHead({ type: "head", rpy: [S.head.roll, S.head.pitch, S.head.yaw] });
+      headDirty = false;
+    }
+    decodePending();
+    updateStatus(now);
+  }
+
+  function tick(now) {
+    if (xrSession) return;                    // the XR frame loop takes over
+    step(now);
+    present();
+    requestAnimationFrame(tick);
+  }
+
+  setInterval(() => send({ type: "ping", t: performance.now() }), 1000);
+  window.addEventListener("resize", () => { viewDirty = true; });
+  window.addEventListener("deviceorientation", onOrientation);
+  if (params.get("overlay") === "0") document.body.classList.add("hide-overlay");
+  $("stereo").setAttribute("aria-pressed", String(S.stereo));
+  $("green").setAttribute("aria-pressed", String(S.green));
+  $("stereo").onclick = () => toggle("stereo");
+  $("green").onclick = () => toggle("green");
+  $("fullscreen").onclick = fullscreen;
+  $("helpbutton").onclick = toggleHelp;
+  $("vr").onclick = enterXR;
+  if ("DeviceOrientationEvent" in window && (navigator.maxTouchPoints > 0 || params.get("orientation") === "1")) {
+    $("orient").hidden = false;
+    $("orient").onclick = toggleOrientation;
+    if (params.get("orientation") === "1") toggleOrientation();
+  }
+  setupXR();
+  connect();
+  requestAnimationFrame(tick);
+  view.focus();
+})();

@@ -1,0 +1,769 @@
+"""The headset server: one port for the browser client page (HTTP GET) and its WebSocket, and an
+optional plain TCP port for native clients; frames out, head pose and controls in. No rclpy.
+
+It runs an asyncio loop in its own thread. The owner (the ``bridge`` node, a benchmark, a test)
+calls :meth:`HeadsetServer.submit_frame` from any thread — only the newest frame is kept, so a
+slow client skips stale frames instead of queueing them — and gets the controlling client's
+input through :class:`Callbacks`, called on the server thread. The protocol is in
+``protocol.py`` and docs/hmd.md; who controls is decided by ``control.ControlArbiter``.
+
+Security: binds 127.0.0.1 by default and then only answers requests whose Host is a loopback
+name (no DNS rebinding); bound anywhere else it requires a token (generated when not given) in
+the page URL and in every client's hello. Client messages above 4 KiB are refused, above
+64 KiB the client is dropped; each refused message is counted per client, and a client that
+reaches ``max_refused`` refusals, floods, or stays silent for ``idle_timeout_s`` is dropped
+without affecting the others.
+"""
+from __future__ import annotations
+
+import asyncio
+import collections
+import hmac
+import ipaddress
+import math
+import secrets
+import ssl
+import statistics
+import threading
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from typing import Any, Callable
+from urllib.parse import parse_qs, urlsplit
+
+import numpy as np
+from websockets.asyncio.server import ServerConnection, serve
+from websockets.datastructures import Headers
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
+
+from raspv_hmd import protocol as P
+from raspv_hmd.control import ControlArbiter, DeadMan
+from raspv_hmd.frame_encoding import OutgoingFrame
+
+HARD_MESSAGE_LIMIT = 65536          # bytes; a client sending more than this in one message is dropped
+WS_PATH = "/ws"
+STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
+                "/index.html": ("index.html", "text/html; charset=utf-8"),
+                "/client.js": ("client.js", "text/javascript; charset=utf-8"),
+                "/style.css": ("style.css", "text/css; charset=utf-8")}
+LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
+CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "
+       "style-src 'self'; script-src 'self'")
+
+
+class ServerError(RuntimeError):
+    """The server could not start (port in use, bad address, bad TLS files)."""
+
+
+class _Drop(Exception):
+    """The client must be disconnected; ``code`` is counted like a refusal."""
+
+    def __init__(self, code: str, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+@dataclass(frozen=True)
+class ServerConfig:
+    host: str = "127.0.0.1"          # interface to bind; "0.0.0.0" for every IPv4 interface
+    port: int = 8765                 # HTTP + WebSocket; 0 picks a free port
+    tcp_port: int | None = 8766      # native clients; None: no TCP endpoint; 0 picks a free port
+    token: str = ""                  # required from clients when set; generated off-loopback
+    compression: str = "auto"        # auto: PNG for remote clients, raw on loopback; png; raw
+    deadman_s: float = 0.5           # no teleop input for this long → one zero twist
+    hello_timeout_s: float = 5.0
+    idle_timeout_s: float = 30.0     # a client silent for this long is dropped
+    max_refused: int = 20            # refusals after which a client is dropped
+    max_rate: float = 400.0          # messages/s a client may send (bucket of the same size)
+    max_clients: int = 16
+    tls_cert: str = ""               # PEM files: serve https/wss (needed by WebXR off localhost)
+    tls_key: str = ""
+
+    def __post_init__(self) -> None:
+        problems = []
+        for name in ("port",) + (("tcp_port",) if self.tcp_port is not None else ()):
+            v = getattr(self, name)
+            if not isinstance(v, int) or not 0 <= v <= 65535:
+                problems.append(f"{name} must be an integer in [0, 65535], got {v!r}")
+        if self.compression not in ("auto", "png", "raw"):
+            problems.append(f"compression must be auto, png or raw, got {self.compression!r}")
+        for name in ("deadman_s", "hello_timeout_s", "idle_timeout_s", "max_rate"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                problems.append(f"{name} must be a positive number, got {v!r}")
+        if bool(self.tls_cert) != bool(self.tls_key):
+            problems.append("tls_cert and tls_key must be given together")
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    @property
+    def loopback(self) -> bool:
+        return is_loopback(self.host)
+
+
+def is_loopback(host: str) -> bool:
+    if host in LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _noop(*_: Any) -> None:
+    return None
+
+
+@dataclass
+class Callbacks:
+    """Input from the controlling client, called on the server thread (keep them short)."""
+
+    on_head_orientation: Callable[[tuple[float, float, float, float], float | None], None] = _noop
+    on_cmd_vel: Callable[[float, float], None] = _noop          # (m/s, rad/s), base frame
+    on_key: Callable[[int, str], None] = _noop                  # (client id, key)
+    on_param: Callable[[int, str, Any], None] = _noop           # (client id, name, value)
+    on_event: Callable[[str], None] = _noop                     # connection events, for the log
+
+
+@dataclass
+class ClientStats:
+    id: int
+    name: str
+    peer: str
+    transport: str
+    role: str
+    format: str
+    received: int
+    refused: dict[str, int]
+    ignored: int
+    frames_sent: int
+    frames_skipped: int
+    ack_rtt_ms: float | None
+
+
+@dataclass
+class ServerStats:
+    clients: list[ClientStats]
+    connections: int                  # accepted since start
+    rejected: dict[str, int]          # refused before or at the hello, by reason
+    dropped: dict[str, int]           # clients dropped after the hello, by reason
+    refused_total: int                # refused messages of all clients, including gone ones
+    frames_submitted: int
+
+
+class _Link:
+    """One client's transport: JSON text and frames out, messages in."""
+
+    transport = ""
+
+    async def send_text(self, text: str) -> None: ...
+    async def send_frame(self, data: bytes) -> None: ...
+    async def recv(self) -> str | bytes | None: ...      # None: the client closed
+    async def close(self) -> None: ...
+
+
+class _WebSocketLink(_Link):
+    transport = "websocket"
+
+    def __init__(self, ws: ServerConnection) -> None:
+        self.ws = ws
+
+    async def send_text(self, text: str) -> None:
+        await self.ws.send(text)
+
+    async def send_frame(self, data: bytes) -> None:
+        await self.ws.send(data)
+
+    async def recv(self) -> str | bytes | None:
+        try:
+            msg = await self.ws.recv()
+        except ConnectionClosed as exc:
+            if exc.sent is not None and exc.sent.code == 1009:
+                raise _Drop("oversized", f"message above {HARD_MESSAGE_LIMIT} bytes") from None
+            return None
+        if isinstance(msg, bytes):
+            raise P.ProtocolError("binary", "clients send JSON text messages, not binary ones")
+        return msg
+
+    async def close(self) -> None:
+        await self.ws.close()
+
+
+class _TcpLink(_Link):
+    transport = "tcp"
+
+    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        self.reader, self.writer = reader, writer
+        writer.transport.set_write_buffer_limits(high=P.MAX_CLIENT_MESSAGE * 16)
+
+    async def _write(self, kind: int, data: bytes) -> None:
+        self.writer.writelines([P.TCP_HEADER.pack(len(data), kind), data])
+        await self.writer.drain()
+
+    async def send_text(self, text: str) -> None:
+        await self._write(P.TCP_JSON, text.encode())
+
+    async def send_frame(self, data: bytes) -> None:
+        await self._write(P.TCP_FRAME, data)
+
+    async def recv(self) -> str | bytes | None:
+        try:
+            length, kind = P.TCP_HEADER.unpack(await self.reader.readexactly(P.TCP_HEADER.size))
+            if length > HARD_MESSAGE_LIMIT:
+                raise _Drop("oversized", f"message of {length} bytes announced; the limit is {HARD_MESSAGE_LIMIT}")
+            payload = await self.reader.readexactly(length)
+        except (asyncio.IncompleteReadError, ConnectionError):
+            return None
+        if kind != P.TCP_JSON:
+            raise P.ProtocolError("bad_kind", f"clients send JSON messages (kind {P.TCP_JSON}), got kind {kind}")
+        return payload
+
+    async def close(self) -> None:
+        self.writer.close()
+        try:
+            await asyncio.wait_for(self.writer.wait_closed(), 2.0)
+        except (OSError, asyncio.TimeoutError):
+            pass
+
+
+class _Session:
+    def __init__(self, cid: int, link: _Link, peer: str, remote: bool, hello: P.Hello, compression: str,
+                 max_rate: float) -> None:
+        self.id = cid
+        self.link = link
+        self.peer = peer
+        self.name = hello.name or f"client {cid}"
+        wanted = hello.format if hello.format != "auto" else compression
+        if wanted == "auto":
+            wanted = "png" if remote else "raw"
+        self.format = P.FORMAT_PNG if wanted == "png" else P.FORMAT_RAW
+        self.window = hello.window
+        self.received = 0
+        self.refused: collections.Counter[str] = collections.Counter()
+        self.ignored = 0
+        self.frames_sent = 0
+        self.frames_skipped = 0
+        self.last_sent = 0
+        self.in_flight: collections.deque[tuple[int, float]] = collections.deque()   # (seq, sent time)
+        self.ack_rtts: collections.deque[float] = collections.deque(maxlen=200)
+        self.frame_ready = asyncio.Event()
+        self.acked = asyncio.Event()
+        self.tokens = max_rate
+        self.max_rate = max_rate
+        self.last_refill = time.monotonic()
+
+    def take_token(self, now: float) -> bool:
+        self.tokens = min(self.max_rate, self.tokens + (now - self.last_refill) * self.max_rate)
+        self.last_refill = now
+        if self.tokens < 1.0:
+            return False
+        self.tokens -= 1.0
+        return True
+
+    def stats(self, role: str) -> ClientStats:
+        return ClientStats(self.id, self.name, self.peer, self.link.transport, role, P.FORMAT_NAMES[self.format],
+                           self.received, dict(self.refused), self.ignored, self.frames_sent, self.frames_skipped,
+                           statistics.median(self.ack_rtts) if self.ack_rtts else None)
+
+
+def _load_client_files() -> dict[str, bytes]:
+    root = resources.files("raspv_hmd") / "client"
+    return {name: (root / name).read_bytes() for name, _ in set(STATIC_FILES.values())}
+
+
+class HeadsetServer:
+    """Streams phosphene frames to headset clients and hands their input to :class:`Callbacks`."""
+
+    def __init__(self, config: ServerConfig | None = None, callbacks: Callbacks | None = None) -> None:
+        self.config = config or ServerConfig()
+        self.callbacks = callbacks or Callbacks()
+        self.token = self.config.token or ("" if self.config.loopback else secrets.token_urlsafe(12))
+        self.port: int | None = None
+        self.tcp_port: int | None = None
+        self._files = _load_client_files()
+        self._ssl = self._ssl_context()
+        self._sessions: dict[int, _Session] = {}
+        self._arbiter = ControlArbiter()
+        self._deadman = DeadMan(self.config.deadman_s)
+        self._deadman_timer: asyncio.TimerHandle | None = None
+        self._latest: OutgoingFrame | None = None
+        self._seq = 0
+        self._seq_lock = threading.Lock()
+        self._png_clients = 0
+        self._connections = 0
+        self._rejected: collections.Counter[str] = collections.Counter()
+        self._dropped: collections.Counter[str] = collections.Counter()
+        self._refused_total = 0
+        self._next_id = 1
+        self._tasks: set[asyncio.Task] = set()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._thread: threading.Thread | None = None
+        self._ready = threading.Event()
+        self._start_error: Exception | None = None
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def _ssl_context(self) -> ssl.SSLContext | None:
+        if not self.config.tls_cert:
+            return None
+        ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+        try:
+            ctx.load_cert_chain(self.config.tls_cert, self.config.tls_key)
+        except (OSError, ssl.SSLError) as exc:
+            raise ServerError(f"cannot load the TLS certificate {self.config.tls_cert!r} / key "
+                              f"{self.config.tls_key!r}: {exc}") from None
+        return ctx
+
+    def start(self) -> "HeadsetServer":
+        """Bind the ports and start serving in a background thread (ServerError if impossible)."""
+        if self._thread is not None:
+            raise ServerError("the server is already running")
+        self._thread = threading.Thread(target=self._run, name="hmd-server", daemon=True)
+        self._thread.start()
+        self._ready.wait()
+        if self._start_error is not None:
+            self._thread.join()
+            self._thread = None
+            raise self._start_error
+        return self
+
+    def stop(self) -> None:
+        """Disconnect every client and close the ports; safe to call twice."""
+        if self._thread is None:
+            return
+        if self._loop is not None and self._stop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+        self._thread.join(timeout=10)
+        self._thread = None
+
+    def __enter__(self) -> "HeadsetServer":
+        return self.start()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.stop()
+
+    def _run(self) -> None:
+        loop = asyncio.new_event_loop()
+        self._loop = loop
+        try:
+            loop.run_until_complete(self._main())
+        finally:
+            loop.close()
+
+    async def _main(self) -> None:
+        cfg = self.config
+        self._stop = asyncio.Event()
+        try:
+            ws_server = await serve(self._ws_handler, cfg.host, cfg.port, process_request=self._process_request,
+                                    compression=None, max_size=HARD_MESSAGE_LIMIT, max_queue=8,
+                                    ssl=self._ssl, server_header=None, ping_interval=10, ping_timeout=10,
+                                    open_timeout=cfg.hello_timeout_s)
+            tcp_server = None
+            if cfg.tcp_port is not None:
+                try:
+                    tcp_server = await asyncio.start_server(self._tcp_handler, cfg.host, cfg.tcp_port,
+                                                            limit=HARD_MESSAGE_LIMIT)
+                except OSError:
+                    ws_server.close()
+                    await ws_server.wait_closed()
+                    raise
+        except OSError as exc:
+            which = f"{cfg.host}:{cfg.port}" + (f" / TCP {cfg.tcp_port}" if cfg.tcp_port is not None else "")
+            why = exc.strerror or str(exc)
+            hint = " (another program, or another bridge, uses it: choose another port)" if "in use" in why else ""
+            self._start_error = ServerError(f"cannot listen on {which}: {why}{hint}")
+            self._ready.set()
+            return
+        self.port = ws_server.sockets[0].getsockname()[1]
+        if tcp_server is not None:
+            self.tcp_port = tcp_server.sockets[0].getsockname()[1]
+        self._ready.set()
+        await self._stop.wait()
+        for s in list(self._sessions.values()):
+            await self._say(s, P.server_message("bye", reason="the server is shutting down"))
+        ws_server.close()
+        if tcp_server is not None:
+            tcp_server.close()
+        for s in list(self._sessions.values()):
+            await s.link.close()
+        if self._tasks:
+            await asyncio.wait(set(self._tasks), timeout=5.0)
+        try:        # an HTTP client that keeps its socket open must not hold the shutdown up
+            await asyncio.wait_for(ws_server.wait_closed(), 1.0)
+            if tcp_server is not None:
+                await asyncio.wait_for(tcp_server.wait_closed(), 1.0)
+        except asyncio.TimeoutError:
+            pass
+        rest = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+        for t in rest:
+            t.cancel()
+        await asyncio.gather(*rest, return_exceptions=True)
+
+    # -- public, thread-safe --------------------------------------------------------------------
+    def urls(self) -> list[str]:
+        """Where to open the client page (with the token when one is needed)."""
+        scheme = "https" if self._ssl else "http"
+        hosts = [self.config.host]
+        if self.config.host in ("0.0.0.0", "", "::"):
+            hosts = _interface_addresses() or ["127.0.0.1"]
+        query = f"?token={self.token}" if self.token else ""
+        return [f"{scheme}://{'[' + h + ']' if ':' in h else h}:{self.port}/{query}" for h in hosts]
+
+    def submit_frame(self, image: np.ndarray, stamp: float) -> int:
+        """Offer a phosphene image ((H, W) mono8 or (H, W, 3) rgb8; ``stamp`` = its time, s) to
+        every client; returns its sequence number. Replaces any frame not yet sent."""
+        with self._seq_lock:
+            self._seq += 1
+            seq = self._seq
+        frame = OutgoingFrame(seq, image, stamp)
+        if self._png_clients > 0:
+            frame.payload(P.FORMAT_PNG)          # encode here, off the server thread
+        loop = self._loop
+        if loop is not None and self._ready.is_set() and self._start_error is None:
+            try:
+                loop.call_soon_threadsafe(self._new_frame, frame)
+            except RuntimeError:                  # the loop is closing
+                pass
+        return seq
+
+    def notify(self, text: str, ok: bool = True, client: int | None = None) -> None:
+        """Send a status line to one client (by id) or to all (``None``)."""
+        msg = P.server_message("status", text=text, ok=ok)
+        loop = self._loop
+        if loop is None:
+            return
+
+        def send() -> None:
+            for s in list(self._sessions.values()):
+                if client is None or s.id == client:
+                    loop.create_task(self._say(s, msg))
+        try:
+            loop.call_soon_threadsafe(send)
+        except RuntimeError:
+            pass
+
+    @property
+    def controller(self) -> int | None:
+        return self._arbiter.controller
+
+    def stats(self, timeout: float = 2.0) -> ServerStats:
+        """A consistent snapshot of the counters (taken on the server thread)."""
+        loop = self._loop
+        if loop is None or not loop.is_running():
+            return self._stats()
+        fut = asyncio.run_coroutine_threadsafe(self._async_stats(), loop)
+        return fut.result(timeout)
+
+    async def _async_stats(self) -> ServerStats:
+        return self._stats()
+
+    def _stats(self) -> ServerStats:
+        ctl = self._arbiter.controller
+        return ServerStats([s.stats("control" if s.id == ctl else "watch") for s in self._sessions.values()],
+                           self._connections, dict(self._rejected), dict(self._dropped), self._refused_total,
+                           self._seq)
+
+    # -- frames ---------------------------------------------------------------------------------
+    def _new_frame(self, frame: OutgoingFrame) -> None:
+        if self._latest is not None and frame.seq < self._latest.seq:
+            return
+        self._latest = frame
+        for s in self._sessions.values():
+            s.frame_ready.set()
+
+    async def _sender(self, s: _Session) -> None:
+        while True:
+            await s.frame_ready.wait()
+            s.frame_ready.clear()
+            while s.window and len(s.in_flight) >= s.window:
+                s.acked.clear()
+                await s.acked.wait()
+            frame = self._latest
+            if frame is None or frame.seq <= s.last_sent:
+                continue
+            if s.last_sent:
+                s.frames_skipped += frame.seq - s.last_sent - 1
+            _, data = frame.message(s.format, time.time())
+            s.last_sent = frame.seq
+            if s.window:
+                s.in_flight.append((frame.seq, time.monotonic()))
+            await s.link.send_frame(data)
+            s.frames_sent += 1
+
+    # -- HTTP -----------------------------------------------------------------------------------
+    def _host_allowed(self, request: Request) -> bool:
+        if self.token:
+            return True
+        host = urlsplit("//" + request.headers.get("Host", "")).hostname or ""
+        return is_loopback(host)
+
+    def _process_request(self, connection: ServerConnection, request: Request) -> Response | None:
+        url = urlsplit(request.path)
+        if not self._host_allowed(request):
+            return _response(403, "This bridge listens on loopback only; open it as http://127.0.0.1:"
+                                  f"{self.port}/ (Host {request.headers.get('Host')!r} refused).")
+        if url.path == WS_PATH:
+            origin = request.headers.get("Origin")
+            if origin is not None and urlsplit(origin).netloc != request.headers.get("Host"):
+                self._rejected["origin"] += 1
+                return _response(403, f"WebSocket from another origin ({origin}) refused")
+            return None
+        if url.path not in STATIC_FILES:
+            return _response(404, f"{url.path} not found; the client page is at /")
+        name, content_type = STATIC_FILES[url.path]
+        if name == "index.html" and self.token:
+            given = parse_qs(url.query).get("token", [""])[0]
+            if not hmac.compare_digest(given.encode(), self.token.encode()):
+                return _response(403, "This bridge needs its token: open the URL printed at its start-up "
+                                      "(…/?token=…).")
+        return _response(200, self._files[name], content_type)
+
+    # -- connections ----------------------------------------------------------------------------
+    async def _ws_handler(self, ws: ServerConnection) -> None:
+        query = parse_qs(urlsplit(ws.request.path).query) if ws.request else {}
+        peer = ws.remote_address
+        await self._serve_client(_WebSocketLink(ws), peer, query.get("token", [""])[0])
+
+    async def _tcp_handler(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        await self._serve_client(_TcpLink(reader, writer), writer.get_extra_info("peername"), "")
+
+    async def _serve_client(self, link: _Link, peer: Any, url_token: str) -> None:
+        task = asyncio.current_task()
+        self._tasks.add(task)
+        try:
+            await self._serve_client_until_gone(link, peer, url_token)
+        finally:
+            self._tasks.discard(task)
+
+    async def _serve_client_until_gone(self, link: _Link, peer: Any, url_token: str) -> None:
+        peer_host = peer[0] if isinstance(peer, tuple) and peer else str(peer)
+        peer_text = f"{peer_host}:{peer[1]}" if isinstance(peer, tuple) and len(peer) > 1 else peer_host
+        hello = await self._handshake(link, peer_text, url_token)
+        if hello is None:
+            await link.close()
+            return
+        cid, self._next_id = self._next_id, self._next_id + 1
+        s = _Session(cid, link, peer_text, not is_loopback(peer_host), hello, self.config.compression,
+                     self.config.max_rate)
+        self._sessions[cid] = s
+        self._connections += 1
+        self._png_clients += s.format == P.FORMAT_PNG
+        changed = self._arbiter.add(cid, hello.role == "control")
+        role = "control" if self._arbiter.controller == cid else "watch"
+        await self._say(s, P.server_message(
+            "welcome", protocol=P.PROTOCOL_VERSION, client_id=cid, role=role, format=P.FORMAT_NAMES[s.format],
+            window=s.window, server_time=time.time(), deadman_s=self.config.deadman_s,
+            limits={"message_bytes": P.MAX_CLIENT_MESSAGE, "rate": self.config.max_rate,
+                    "max_refused": self.config.max_refused, "idle_s": self.config.idle_timeout_s}))
+        self._event(f"{link.transport} client {cid} '{s.name}' from {peer_text} connected ({role}, "
+                    f"{P.FORMAT_NAMES[s.format]} frames)")
+        if changed:
+            await self._announce_roles()
+        if self._latest is not None:
+            s.frame_ready.set()
+        sender = asyncio.create_task(self._sender(s))
+        reason = "left"
+        try:
+            reason = await self._receive_loop(s)
+        except _Drop as exc:
+            if exc.code == "oversized":          # the message that broke the limit is a refusal too
+                s.refused[exc.code] += 1
+                self._refused_total += 1
+            reason = f"dropped: {exc}"
+            self._dropped[exc.code] += 1
+        except (ConnectionError, ConnectionClosed):
+            reason = "connection lost"
+        finally:
+            sender.cancel()
+            try:
+                await sender
+            except (asyncio.CancelledError, ConnectionError, ConnectionClosed):
+                pass
+            except Exception as exc:  # noqa: BLE001 - a failed send ends only this client
+                reason = f"send failed: {exc!r}"
+            del self._sessions[cid]
+            self._png_clients -= s.format == P.FORMAT_PNG
+            was_controller = self._arbiter.controller == cid
+            changed = self._arbiter.remove(cid)
+            if was_controller and self._deadman.release():
+                self._call(self.callbacks.on_cmd_vel, 0.0, 0.0)
+            await link.close()
+            self._event(f"client {cid} '{s.name}' {reason} (received {s.received}, refused "
+                        f"{sum(s.refused.values())}, frames sent {s.frames_sent})")
+            if changed:
+                await self._announce_roles()
+
+    async def _handshake(self, link: _Link, peer: str, url_token: str) -> P.Hello | None:
+        try:
+            first = await asyncio.wait_for(link.recv(), self.config.hello_timeout_s)
+        except asyncio.TimeoutError:
+            return self._reject("hello_timeout", peer, f"no hello within {self.config.hello_timeout_s:g} s")
+        except (_Drop, P.ProtocolError) as exc:
+            return self._reject(getattr(exc, "code", "bad_hello"), peer, str(exc))
+        except (ConnectionError, ConnectionClosed):
+            return None
+        if first is None:
+            return None
+        try:
+            hello = P.parse_client_message(first)
+        except P.ProtocolError as exc:
+            await self._send_bye(link, f"bad hello: {exc}")
+            return self._reject(exc.code, peer, str(exc))
+        if not isinstance(hello, P.Hello):
+            await self._send_bye(link, "the first message must be a hello")
+            return self._reject("no_hello", peer, "first message was not a hello")
+        if self.token:
+            given = hello.token or url_token
+            if not hmac.compare_digest(given.encode(), self.token.encode()):
+                await self._send_bye(link, "wrong or missing token")
+                return self._reject("token", peer, "wrong or missing token")
+        if len(self._sessions) >= self.config.max_clients:
+            await self._send_bye(link, f"the server is full ({self.config.max_clients} clients)")
+            return self._reject("full", peer, "too many clients")
+        return hello
+
+    def _reject(self, code: str, peer: str, why: str) -> None:
+        self._rejected[code] += 1
+        self._event(f"refused a client from {peer}: {why}")
+        return None
+
+    async def _send_bye(self, link: _Link, reason: str) -> None:
+        try:
+            await asyncio.wait_for(link.send_text(P.server_message("bye", reason=reason)), 2.0)
+        except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
+            pass
+
+    async def _receive_loop(self, s: _Session) -> str:
+        cfg = self.config
+        while True:
+            try:
+                raw = await asyncio.wait_for(s.link.recv(), cfg.idle_timeout_s)
+            except asyncio.TimeoutError:
+                raise _Drop("idle", f"silent for {cfg.idle_timeout_s:g} s") from None
+            except P.ProtocolError as exc:
+                await self._refuse(s, exc)
+                continue
+            if raw is None:
+                return "left"
+            s.received += 1
+            if not s.take_token(time.monotonic()):
+                await self._refuse(s, P.ProtocolError("rate", f"more than {cfg.max_rate:g} messages/s"))
+                continue
+            try:
+                msg = P.parse_client_message(raw)
+                await self._dispatch(s, msg)
+            except P.ProtocolError as exc:
+                await self._refuse(s, exc)
+
+    async def _refuse(self, s: _Session, exc: P.ProtocolError) -> None:
+        s.refused[exc.code] += 1
+        self._refused_total += 1
+        total = sum(s.refused.values())
+        if total >= self.config.max_refused:
+            await self._say(s, P.server_message("bye", reason=f"{total} refused messages; last: {exc}"))
+            raise _Drop("abuse", f"{total} refused messages (last: {exc.code}: {exc})")
+        if s.refused[exc.code] <= 3 or total % 10 == 0:       # do not echo a flood back
+            await self._say(s, P.server_message("refused", code=exc.code, reason=str(exc), count=total))
+
+    async def _dispatch(self, s: _Session, msg: P.ClientMessage) -> None:
+        if isinstance(msg, P.Ping):
+            await self._say(s, P.server_message("pong", t=msg.t, server_time=time.time()))
+            return
+        if isinstance(msg, P.Ack):
+            if msg.seq > s.last_sent:
+                raise P.ProtocolError("bad_field", f"ack of frame {msg.seq}, which was not sent (last {s.last_sent})")
+            now = time.monotonic()
+            while s.in_flight and s.in_flight[0][0] <= msg.seq:
+                seq, sent = s.in_flight.popleft()
+                if seq == msg.seq:
+                    s.ack_rtts.append(1e3 * (now - sent))
+            s.acked.set()
+            return
+        if isinstance(msg, P.Control):
+            if self._arbiter.set_want(s.id, msg.want):
+                if self._deadman.release():
+                    self._call(self.callbacks.on_cmd_vel, 0.0, 0.0)
+                await self._announce_roles()
+            return
+        if isinstance(msg, P.Hello):
+            raise P.ProtocolError("bad_field", "hello was already received")
+        if self._arbiter.controller != s.id:
+            s.ignored += 1
+            if s.ignored == 1:
+                await self._say(s, P.server_message("status", ok=False,
+                                                    text="watching: another client controls the avatar"))
+            return
+        if isinstance(msg, P.Head):
+            self._call(self.callbacks.on_head_orientation, msg.quaternion, msg.client_time)
+        elif isinstance(msg, P.Twist):
+            self._deadman.input(msg.linear, msg.angular, time.monotonic())
+            self._call(self.callbacks.on_cmd_vel, msg.linear, msg.angular)
+            self._arm_deadman()
+        elif isinstance(msg, P.Key):
+            self._call(self.callbacks.on_key, s.id, msg.key)
+        elif isinstance(msg, P.SetParam):
+            self._call(self.callbacks.on_param, s.id, msg.name, msg.value)
+
+    # -- helpers --------------------------------------------------------------------------------
+    def _arm_deadman(self) -> None:
+        if self._deadman_timer is not None:
+            self._deadman_timer.cancel()
+            self._deadman_timer = None
+        due = self._deadman.deadline()
+        if due is not None:
+            self._deadman_timer = asyncio.get_running_loop().call_later(
+                max(0.0, due - time.monotonic()), self._deadman_fire)
+
+    def _deadman_fire(self) -> None:
+        self._deadman_timer = None
+        if self._deadman.poll(time.monotonic()):
+            self._call(self.callbacks.on_cmd_vel, 0.0, 0.0)
+            self._event(f"no teleop input for {self.config.deadman_s:g} s: stopped the avatar")
+        else:
+            self._arm_deadman()
+
+    async def _announce_roles(self) -> None:
+        ctl = self._arbiter.controller
+        for s in list(self._sessions.values()):
+            await self._say(s, P.server_message("role", role="control" if s.id == ctl else "watch", controller=ctl))
+
+    async def _say(self, s: _Session, text: str) -> None:
+        try:
+            await asyncio.wait_for(s.link.send_text(text), 5.0)
+        except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
+            pass
+
+    def _call(self, fn: Callable[..., None], *args: Any) -> None:
+        try:
+            fn(*args)
+        except Exception as exc:  # noqa: BLE001 - a failing owner callback must not stop the server
+            self._event(f"callback {getattr(fn, '__name__', fn)} failed: {exc!r}")
+
+    def _event(self, text: str) -> None:
+        try:
+            self.callbacks.on_event(text)
+        except Exception:  # noqa: BLE001 - logging must never break serving
+            pass
+
+
+def _response(status: int, body: str | bytes, content_type: str = "text/plain; charset=utf-8") -> Response:
+    data = body.encode() if isinstance(body, str) else body
+    reason = {200: "OK", 403: "Forbidden", 404: "Not Found"}.get(status, "")
+    headers = Headers([("Content-Type", content_type), ("Content-Length", str(len(data))),
+                       ("Cache-Control", "no-store"), ("X-Content-Type-Options", "nosniff"),
+                       ("Content-Security-Policy", CSP), ("Connection", "close")])
+    return Response(status, reason, headers, data)
+
+
+def _interface_addresses() -> list[str]:
+    import socket
+
+    import psutil
+
+    out = []
+    for addrs in psutil.net_if_addrs().values():
+        for a in addrs:
+            if a.family == socket.AF_INET and not a.address.startswith("127."):
+                out.append(a.address)
+    return out
