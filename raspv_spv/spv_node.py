@@ -42,6 +42,11 @@ REPORT_PERIOD_S = 10.0
 _BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
 
 
+def _reason(exc: Exception) -> str:
+    """The message of a build error (KeyError's str() adds quotes)."""
+    return str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+
+
 def build_simulator(params: dict) -> PhospheneSimulator:
     """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
     if params["edge_low"] > params["edge_high"]:
@@ -55,7 +60,7 @@ class SpvNode(RaspvNode):
         try:
             self.sim = build_simulator(self.params)
         except _BUILD_ERRORS as exc:
-            raise ConfigurationError(str(exc).strip("'\"")) from None
+            raise ConfigurationError(_reason(exc)) from None
         self.map_id = 1
         self._sim_lock = threading.Lock()
         self._input_group = MutuallyExclusiveCallbackGroup()
@@ -97,7 +102,7 @@ class SpvNode(RaspvNode):
         try:
             new = build_simulator(merged)
         except _BUILD_ERRORS as exc:
-            return str(exc).strip("'\"")
+            return _reason(exc)
         old = self.sim
         map_changed = new.config.map_spec() != old.config.map_spec()
         with self._sim_lock:

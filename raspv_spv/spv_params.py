@@ -24,7 +24,7 @@ PARAMS = [
     Param("height", 0, "phosphene image height (0: width x the device's aspect ratio)", minimum=0, maximum=4096,
           unit="px"),
     Param("mode", "grey", "representation mode", choices=tuple(MODES)),
-    Param("overlays", [], "overlays drawn over the mode, in order", choices=tuple(OVERLAYS)),
+    Param("overlays", [], "overlays drawn over the mode, in order", choices=tuple(OVERLAYS) or None),
     Param("temporal", True, "temporal model (discretised Horsager 2009 / Nanduri 2012) on or off"),
     Param("temporal_model", "horsager2009", "continuous model the look-up table is built from",
           choices=("horsager2009", "nanduri2012")),

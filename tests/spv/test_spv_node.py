@@ -112,3 +112,12 @@ def test_bad_input_is_skipped_with_one_warning_and_display_goes_on(graph, probe)
     probe.unsubscribe(col)
     assert g.running() and "Traceback" not in g.output
     assert g.output.count("ignoring depth image") == 1                   # rate-limited
+
+
+def test_an_impossible_configuration_is_one_line_at_start(graph, tmp_path):
+    bad = tmp_path / "broken.yaml"
+    bad.write_text("name: broken\nnum_phosphenes: 10\nfov_deg: 20\ngrid: hexagonal\n")
+    g = graph({"launch": {"nodes": [{"kind": "spv"}]}, "spv": {"ros__parameters": {"device": str(bad)}}})
+    g.wait_for_output(r"configuration error: .*broken.yaml: missing key\(s\) num_levels, phosphene_fov_deg", timeout=60)
+    g.proc.wait(timeout=30)
+    assert g.stop() != 0 and "Traceback" not in g.output
