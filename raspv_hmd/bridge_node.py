@@ -1,0 +1,205 @@
+"""`bridge` node: the headset server (raspv_hmd/server.py) in the graph.
+
+Subscribes ``/spv/image`` (mono8 or rgb8) and streams it to headset clients; publishes the
+controlling client's head as ``/head/orientation`` (QuaternionStamped, frame ``base``, head
+relative to the base, identity looks ahead) and its teleop as ``/cmd_vel`` (Twist, clamped to
+``max_linear``/``max_angular``; one zero twist after ``deadman_timeout`` without input); turns
+the viewer keys (raspv_hmd/keymap.py) and direct parameter requests into parameter changes of
+the ``spv`` node and tells the client the result. Prints the client URL at start-up.
+"""
+from __future__ import annotations
+
+import collections
+import dataclasses
+import threading
+import time
+from typing import Any, Callable
+
+from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist
+from sensor_msgs.msg import Image
+
+from raspv_common import topics
+from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_to_seconds
+from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.param_client import ParamClient
+from raspv_common.qos import COMMAND_QOS, SENSOR_QOS
+from raspv_hmd.bridge_params import PARAMS
+from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
+from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig, ServerError
+from raspv_spv.device import DeviceError, load_device
+from raspv_spv.modes import MODES as SPV_MODES
+
+PARAM_REPLY_TIMEOUT_S = 3.0
+
+
+def device_values(current: dict[str, Any]) -> dict[str, Any] | None:
+    """The spv device preset's values when a needed parameter holds "the device's value"."""
+    if not any(uses_device_value(k, v) for k, v in current.items()) or not current.get("device"):
+        return None
+    return dataclasses.asdict(load_device(current["device"]))
+
+
+class BridgeNode(RaspvNode):
+    def __init__(self) -> None:
+        super().__init__("bridge", PARAMS)
+        p = self.params
+        try:
+            config = ServerConfig(host=p["host"], port=p["port"], tcp_port=None if p["tcp_port"] < 0 else p["tcp_port"],
+                                  token=p["token"], compression=p["compression"], deadman_s=p["deadman_timeout"],
+                                  max_clients=p["max_clients"], max_refused=p["max_refused"],
+                                  tls_cert=p["tls_cert"], tls_key=p["tls_key"])
+        except ValueError as exc:
+            raise ConfigurationError(str(exc)) from None
+        self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
+        self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
+        self.spv = ParamClient(self, p["spv_node"])
+        self.requests: collections.deque[tuple[int, Callable[[int], None]]] = collections.deque()
+        self.requests_lock = threading.Lock()
+        self.request_id = 0
+        self.current: tuple[int, int, float] | None = None      # (request id, client, started)
+        self.request_guard = self.create_guard_condition(self._next_request)
+        self.create_timer(0.5, self._check_request_timeout)
+        callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
+                              on_param=self.on_param, on_event=lambda text: self.get_logger().info(text))
+        try:
+            self.server = HeadsetServer(config, callbacks).start()
+        except (ServerError, ValueError) as exc:
+            raise ConfigurationError(str(exc)) from None
+        self.frames = 0
+        self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
+        tcp = f"; native clients: tcp://{p['host']}:{self.server.tcp_port}" if self.server.tcp_port else ""
+        for url in self.server.urls():
+            print(f"headset client: open {url} in a browser{tcp}", flush=True)
+        if self.server.token and not p["token"]:
+            print(f"bridge token (generated, listening on {p['host']}): {self.server.token}", flush=True)
+
+    # -- frames ---------------------------------------------------------------------------------
+    def on_image(self, msg: Image) -> None:
+        if msg.encoding not in ("mono8", "rgb8"):
+            self.warn_throttled("encoding", f"ignoring {topics.SPV_IMAGE} in {msg.encoding!r}; expected mono8 or rgb8")
+            return
+        try:
+            image = image_to_array(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("image", f"ignoring a broken {topics.SPV_IMAGE} message: {exc}")
+            return
+        stamp = stamp_to_seconds(msg.header.stamp) or time.time()
+        self.server.submit_frame(image, stamp)
+        self.frames += 1
+
+    # -- from the controlling client (server thread) ----------------------------------------------
+    def on_head(self, q: tuple[float, float, float, float], _client_time: float | None) -> None:
+        x, y, z, w = q
+        self.pub_head.publish(QuaternionStamped(header=self.header("base"), quaternion=Quaternion(x=x, y=y, z=z, w=w)))
+
+    def on_cmd_vel(self, linear: float, angular: float) -> None:
+        vmax, wmax = self.params["max_linear"], self.params["max_angular"]
+        twist = Twist()
+        twist.linear.x = max(-vmax, min(vmax, linear))
+        twist.angular.z = max(-wmax, min(wmax, angular))
+        self.pub_cmd.publish(twist)
+
+    def on_key(self, client: int, key: str) -> None:
+        try:
+            needed = parameters_needed(key)
+        except KeyError:
+            self.server.notify(f"key {key!r} does nothing here", ok=False, client=client)
+            return
+
+        def request(rid: int) -> None:
+            def apply(current: dict[str, Any]) -> None:
+                try:
+                    change = key_change(key, current, self.modes(), device_values(current))
+                except (ValueError, DeviceError) as exc:
+                    self._finish(rid, str(exc), ok=False)
+                    return
+                self._set(rid, change.name, change.value, current.get(change.name), change.text)
+            self._get(rid, needed, apply)
+        self._queue(client, request)
+
+    def on_param(self, client: int, name: str, value: Any) -> None:
+        def request(rid: int) -> None:
+            def apply(current: dict[str, Any]) -> None:
+                if current[name] is None:
+                    self._finish(rid, f"{self.spv.target} has no parameter {name!r}", ok=False)
+                else:
+                    self._set(rid, name, value, current[name], f"{name} → {value}")
+            self._get(rid, [name], apply)
+        self._queue(client, request)
+
+    def modes(self) -> list[str]:
+        return list(self.params["modes"]) or list(SPV_MODES)
+
+    # -- spv parameter requests, one at a time (executor thread) -----------------------------------
+    def _queue(self, client: int, request: Callable[[int], None]) -> None:
+        with self.requests_lock:
+            self.requests.append((client, request))
+        self.request_guard.trigger()
+
+    def _next_request(self) -> None:
+        with self.requests_lock:
+            if self.current is not None or not self.requests:
+                return
+            client, request = self.requests.popleft()
+            self.request_id += 1
+            self.current = (self.request_id, client, time.monotonic())
+            rid = self.request_id
+        request(rid)
+
+    def _get(self, rid: int, names: list[str], then: Callable[[dict[str, Any]], None]) -> None:
+        if not names:
+            then({})
+            return
+
+        # values of parameters the node lacks come back as None; no answer at all (node absent)
+        # is reported by the timeout check
+        self.spv.get_async(names, then)
+
+    def _set(self, rid: int, name: str, value: Any, current: Any, text: str) -> None:
+        if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+
+        def done(results: list[tuple[str, bool, str]]) -> None:
+            _, ok, reason = results[0]
+            self._finish(rid, f"spv {text}" if ok else f"spv refused {name} = {value!r}: {reason}", ok)
+        self.spv.set_async({name: value}, done)
+
+    def _finish(self, rid: int, text: str, ok: bool) -> None:
+        """End request ``rid`` (late answers to a request that timed out are dropped)."""
+        with self.requests_lock:
+            if self.current is None or self.current[0] != rid:
+                return
+            client = self.current[1]
+            self.current = None
+        self.server.notify(text, ok=ok, client=client)
+        (self.get_logger().info if ok else self.get_logger().warning)(f"client {client}: {text}")
+        self.request_guard.trigger()
+
+    def _check_request_timeout(self) -> None:
+        with self.requests_lock:
+            current = self.current
+        if current is not None and time.monotonic() - current[2] > PARAM_REPLY_TIMEOUT_S:
+            self._finish(current[0], f"node {self.spv.target} did not answer (is it running?)", ok=False)
+
+    # -- lifecycle --------------------------------------------------------------------------------
+    def close(self) -> None:
+        server = getattr(self, "server", None)
+        if server is not None:
+            try:
+                if self.pub_cmd is not None:
+                    self.pub_cmd.publish(Twist())        # leave the avatar standing
+            except Exception:  # noqa: BLE001 - the context may already be shut down
+                pass
+            stats = server.stats()
+            server.stop()
+            print(f"bridge: {self.frames} frames in, {stats.connections} clients served, "
+                  f"{stats.refused_total} messages refused, {sum(stats.rejected.values())} connections rejected",
+                  flush=True)
+
+
+def main(argv: list[str] | None = None) -> None:
+    run_node(BridgeNode, argv)
+
+
+if __name__ == "__main__":
+    main()
