@@ -168,7 +168,8 @@ class SpvNode(RaspvNode):
 
     def _frame_arrived(self, which: str) -> None:
         """Recompute the levels when the mode's main input (colour, else depth) arrives."""
-        sim, map_id = self.sim, self.map_id
+        with self._sim_lock:
+            sim, map_id = self.sim, self.map_id
         main = "color" if "color" in sim.needs else "depth"
         if which != main:
             return
