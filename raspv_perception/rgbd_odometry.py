@@ -1,0 +1,165 @@
+"""Camera pose from RGB-D frames by frame-to-frame odometry (Open3D), for sources without a
+pose (real cameras, recordings) (no ROS).
+
+Each frame is registered to the previous one with ``o3d.pipelines.odometry.compute_rgbd_odometry``
+(photometric + geometric "hybrid" term, coarse-to-fine), optionally on downscaled images; the
+motions are chained into C0 ← C, the pose relative to the first camera frame C0.
+
+World frame W (REP 103: x, y horizontal, z up, metres) is anchored to C0:
+- with the floor seen in some frame (``anchor_to_floor``): z along the floor normal (up),
+  origin on the floor below C0's centre, x along C0's optical axis projected on the floor,
+  y = z × x (left) — so W is gravity-aligned and z = 0 is the floor;
+- otherwise C0 is assumed level: x = C0's optical axis, y = its −x (left), z = its −y (up),
+  origin at C0's centre.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+
+# W ← C0 for a level camera (columns: C0's x, y, z axes in W).
+LEVEL_WORLD_FROM_CAMERA = np.array([[0.0, 0.0, 1.0, 0.0],
+                                    [-1.0, 0.0, 0.0, 0.0],
+                                    [0.0, -1.0, 0.0, 0.0],
+                                    [0.0, 0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class OdometryConfig:
+    scale: float = 0.5                    # images are resized by this before registration (speed)
+    min_depth: float = 0.2                # depth used for registration [m]
+    max_depth: float = 4.0                # (Open3D's default; far Kinect depth is too noisy) [m]
+    max_depth_difference: float = 0.07    # correspondences farther apart in depth are rejected [m]
+    iterations: tuple[int, ...] = (20, 10, 5)   # per pyramid level, fine to coarse
+    max_translation: float = 0.3          # a frame-to-frame motion larger than this is a failure [m]
+    max_rotation_deg: float = 20.0        # (at ≥ 10 Hz nobody moves the head faster) [deg]
+    min_overlap: float = 0.3              # fraction of the frame's depth pixels that must find a match
+
+    def __post_init__(self) -> None:
+        if not 0.05 <= self.scale <= 1.0:
+            raise ValueError(f"scale must be in [0.05, 1], got {self.scale}")
+        if not 0 <= self.min_depth < self.max_depth:
+            raise ValueError(f"need 0 <= min_depth < max_depth, got {self.min_depth}, {self.max_depth}")
+        if not 0 <= self.min_overlap <= 1:
+            raise ValueError(f"min_overlap must be in [0, 1], got {self.min_overlap}")
+        if self.max_depth_difference <= 0 or self.max_translation <= 0 or self.max_rotation_deg <= 0:
+            raise ValueError("max_depth_difference, max_translation and max_rotation_deg must be positive")
+        if not self.iterations or any(int(i) < 1 for i in self.iterations):
+            raise ValueError(f"iterations must be positive counts per pyramid level, got {self.iterations}")
+
+
+@dataclass
+class OdometryStep:
+    """Result for one frame: ``tracked`` False when registration failed (the pose is then held);
+    ``relative`` previous ← current camera motion (identity on failure or the first frame)."""
+
+    tracked: bool
+    world_from_camera: np.ndarray
+    relative: np.ndarray
+
+
+class RGBDOdometry:
+    """Frame-to-frame RGB-D odometry. Feed frames in order with :meth:`process`."""
+
+    def __init__(self, config: OdometryConfig | None = None) -> None:
+        import open3d as o3d        # heavy: imported when odometry is used
+
+        self._o3d = o3d
+        self.config = config or OdometryConfig()
+        self._option = o3d.pipelines.odometry.OdometryOption(
+            iteration_number_per_pyramid_level=o3d.utility.IntVector([int(i) for i in self.config.iterations]),
+            depth_diff_max=self.config.max_depth_difference, depth_min=self.config.min_depth,
+            depth_max=self.config.max_depth)
+        self._jacobian = o3d.pipelines.odometry.RGBDOdometryJacobianFromHybridTerm()
+        self.reset()
+
+    def reset(self) -> None:
+        self._previous = None
+        self._previous_size: tuple[int, int] | None = None
+        self.c0_from_camera = np.eye(4)
+        self.world_from_c0 = LEVEL_WORLD_FROM_CAMERA.copy()
+        self.anchored = False
+        self.frames = 0
+        self.failures = 0
+        self.last_overlap = math.nan       # matched fraction of the last registration
+
+    @property
+    def world_from_camera(self) -> np.ndarray:
+        return self.world_from_c0 @ self.c0_from_camera
+
+    def _rgbd(self, rgb: np.ndarray, depth: np.ndarray, K: CameraIntrinsics):
+        o3d = self._o3d
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
+            raise ValueError(f"colour must be an (H, W, 3) uint8 RGB image, got {rgb.dtype} {rgb.shape}")
+        if depth.ndim != 2 or not np.issubdtype(depth.dtype, np.floating):
+            raise ValueError(f"depth must be an (H, W) float image in metres, got {depth.dtype} {depth.shape}")
+        if rgb.shape[:2] != depth.shape or depth.shape != (K.height, K.width):
+            raise ValueError(f"colour {rgb.shape[1]}x{rgb.shape[0]}, depth {depth.shape[1]}x{depth.shape[0]} and "
+                             f"camera {K.width}x{K.height} must have the same size")
+        s = self.config.scale
+        if s != 1.0:
+            w, h = max(8, int(round(K.width * s))), max(8, int(round(K.height * s)))
+            rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
+            depth = cv2.resize(depth, (w, h), interpolation=cv2.INTER_NEAREST)
+            K = K.scaled(w, h)
+        d = np.where(np.isfinite(depth) & (depth >= self.config.min_depth) & (depth <= self.config.max_depth),
+                     depth, 0.0).astype(np.float32)
+        self._valid_pixels = int(np.count_nonzero(d))
+        image = o3d.geometry.RGBDImage.create_from_color_and_depth(
+            o3d.geometry.Image(np.ascontiguousarray(rgb)), o3d.geometry.Image(d), depth_scale=1.0,
+            depth_trunc=self.config.max_depth, convert_rgb_to_intensity=True)
+        intr = o3d.camera.PinholeCameraIntrinsic(K.width, K.height, K.fx, K.fy, K.cx, K.cy)
+        return image, intr
+
+    def process(self, rgb: np.ndarray, depth: np.ndarray, intrinsics: CameraIntrinsics) -> OdometryStep:
+        """Register this frame (RGB uint8, depth metres with NaN holes) to the previous one."""
+        image, intr = self._rgbd(rgb, depth, intrinsics)
+        size = (intrinsics.width, intrinsics.height)
+        relative = np.eye(4)
+        tracked = True
+        if self._previous is not None and self._previous_size == size:
+            ok, T, info = self._o3d.pipelines.odometry.compute_rgbd_odometry(
+                image, self._previous, intr, np.eye(4), self._jacobian, self._option)
+            T = np.asarray(T)
+            angle = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(T[:3, :3]) - 1) / 2))))
+            # Open3D reports success with no correspondences at all; its information matrix
+            # counts them (entry [5, 5]).
+            overlap = float(np.asarray(info)[5, 5]) / max(1, self._valid_pixels)
+            self.last_overlap = overlap
+            if (ok and overlap >= self.config.min_overlap and np.linalg.norm(T[:3, 3]) <= self.config.max_translation
+                    and angle <= self.config.max_rotation_deg):
+                relative = T                 # previous ← current
+                self.c0_from_camera = self.c0_from_camera @ T
+            else:
+                tracked = False
+                self.failures += 1
+        self._previous, self._previous_size = image, size
+        self.frames += 1
+        return OdometryStep(tracked, self.world_from_camera, relative)
+
+    def anchor_to_floor(self, floor_plane: np.ndarray, c0_from_floor_camera: np.ndarray | None = None) -> None:
+        """Make W gravity-aligned from a floor plane (a, b, c, d), normal up, seen in the camera
+        frame whose pose relative to C0 is ``c0_from_floor_camera`` (default: C0 itself)."""
+        T = np.eye(4) if c0_from_floor_camera is None else np.asarray(c0_from_floor_camera, dtype=np.float64)
+        n = T[:3, :3] @ np.asarray(floor_plane[:3], dtype=np.float64)
+        norm = np.linalg.norm(n)
+        if not np.isfinite(norm) or norm == 0:
+            raise ValueError("floor plane normal must be a finite non-zero vector")
+        n /= norm
+        d = float(floor_plane[3]) / norm - float(n @ T[:3, 3])           # plane n·p + d = 0 in C0
+        x = np.array([0.0, 0.0, 1.0]) - n[2] * n                         # C0's optical axis on the floor
+        if np.linalg.norm(x) < 1e-6:
+            x = np.array([0.0, -1.0, 0.0]) - n[1] * n
+        x /= np.linalg.norm(x)
+        y = np.cross(n, x)
+        R = np.stack([x, y, n])              # rows: W axes in C0 → W ← C0 rotation
+        W = np.eye(4)
+        W[:3, :3] = R
+        W[:3, 3] = (0.0, 0.0, d)             # C0's centre is d above the floor, origin right below it
+        self.world_from_c0 = W
+        self.anchored = True
