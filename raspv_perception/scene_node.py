@@ -1,0 +1,108 @@
+"""`scene` node: depth + camera info (+ optional /camera/pose prior) → /scene/structure and
+/scene/labels.
+
+Each depth image is processed on arrival (the newest wins when processing is slower than the
+source). The pose prior is the latest /camera/pose within ``pose_max_age`` of the depth stamp.
+Both outputs carry the depth image's header, so consumers pair them by stamp.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections import deque
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from raspv_msgs.msg import SceneStructure as SceneStructureMsg
+from sensor_msgs.msg import CameraInfo, Image
+
+from raspv_common import topics
+from raspv_common.conversions import (ImageEncodingError, array_to_image, camera_info_to_intrinsics, depth_from_image,
+                                      pose_to_matrix, stamp_to_seconds)
+from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.qos import SENSOR_QOS
+from raspv_perception.scene_config import SceneConfig
+from raspv_perception.scene_msg import structure_to_msg
+from raspv_perception.scene_params import CONFIG_FIELDS, PARAMS
+from raspv_perception.scene_perception import ScenePerception
+
+
+def config_from_params(p: dict) -> SceneConfig:
+    """SceneConfig from node parameters (ValueError with the reason if inconsistent)."""
+    return dataclasses.replace(SceneConfig(), **{k: p[k] for k in CONFIG_FIELDS})
+
+
+class SceneNode(RaspvNode):
+    def __init__(self) -> None:
+        super().__init__("scene", PARAMS)
+        try:
+            self.perception = ScenePerception(config_from_params(self.params))
+        except ValueError as exc:
+            raise ConfigurationError(str(exc)) from None
+        self.intrinsics = None
+        self.poses: deque[tuple[float, np.ndarray]] = deque(maxlen=50)
+        self.frames = 0
+        self.pub_structure = self.create_publisher(SceneStructureMsg, topics.SCENE_STRUCTURE, SENSOR_QOS)
+        self.pub_labels = self.create_publisher(Image, topics.SCENE_LABELS, SENSOR_QOS)
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_info, SENSOR_QOS)
+        self.create_subscription(PoseStamped, topics.CAMERA_POSE, self.on_pose, SENSOR_QOS)
+        self.create_subscription(Image, topics.DEPTH, self.on_depth, SENSOR_QOS)
+
+    def on_parameters(self, changes):
+        try:
+            config = config_from_params({**self.params, **changes})
+        except ValueError as exc:
+            return str(exc)
+        self.perception.set_config(config)
+        return None
+
+    def on_info(self, msg: CameraInfo) -> None:
+        try:
+            self.intrinsics = camera_info_to_intrinsics(msg)
+        except ValueError as exc:
+            self.warn_throttled("info", f"ignoring camera info: {exc}")
+
+    def on_pose(self, msg: PoseStamped) -> None:
+        T = pose_to_matrix(msg.pose)
+        if not np.isfinite(T).all():
+            self.warn_throttled("pose", "ignoring a camera pose with NaN/inf values")
+            return
+        self.poses.append((stamp_to_seconds(msg.header.stamp), T))
+
+    def _prior(self, stamp: float) -> np.ndarray | None:
+        if not self.params["use_pose_prior"] or not self.poses:
+            return None
+        t, T = min(self.poses, key=lambda tp: abs(tp[0] - stamp))
+        return T if abs(t - stamp) <= self.params["pose_max_age"] else None
+
+    def on_depth(self, msg: Image) -> None:
+        if self.intrinsics is None:
+            self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
+            return
+        try:
+            depth = depth_from_image(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("depth", f"ignoring depth image: {exc}")
+            return
+        K = self.intrinsics
+        if depth.shape != (K.height, K.width):
+            self.warn_throttled("depth-size", f"depth {depth.shape[1]}x{depth.shape[0]} does not match camera info "
+                                              f"{K.width}x{K.height}; ignoring it")
+            return
+        result = self.perception.process(depth, K, self._prior(stamp_to_seconds(msg.header.stamp)))
+        self.pub_structure.publish(structure_to_msg(result.structure, msg.header))
+        if self.params["publish_labels"]:
+            self.pub_labels.publish(array_to_image(result.labels, "mono8", msg.header))
+        self.frames += 1
+        if self.frames == 1:
+            s = result.structure
+            floor = f"floor {s.camera_height:.2f} m below, pitch {s.camera_pitch_deg:.0f} deg" if s.floor_found else "no floor"
+            self.get_logger().info(f"first frame {K.width}x{K.height}: {floor}, {len(s.planes)} planes, "
+                                   f"{len(s.obstacles)} obstacles, {s.processing_ms:.0f} ms")
+
+
+def main(argv=None) -> None:
+    run_node(SceneNode, argv)
+
+
+if __name__ == "__main__":
+    main()
