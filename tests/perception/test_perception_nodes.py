@@ -1,0 +1,98 @@
+"""The scene and odometry nodes in real graphs."""
+import math
+import time
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import CameraInfo, Image
+
+from raspv_camera.synthetic_scene import SyntheticRoom, camera_rotation
+from raspv_common import topics
+from raspv_common.conversions import array_to_image, image_to_array, intrinsics_to_camera_info, pose_to_matrix, seconds_to_stamp
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_common.qos import SENSOR_QOS
+from raspv_msgs.msg import SceneStructure as SceneStructureMsg
+from raspv_perception import scene_labels as L
+from raspv_perception.scene_msg import structure_from_msg
+from std_msgs.msg import Header
+
+pytestmark = pytest.mark.integration
+
+
+def test_scene_node_on_the_synthetic_source(graph, probe):
+    graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "scene"}]},
+           "cam": {"ros__parameters": {"rate": 5.0, "width": 320, "height": 240, "walk_speed": 0.0,
+                                       "eye_height": 1.5, "pitch_down_deg": 20.0}}})
+    structures = probe.subscribe(topics.SCENE_STRUCTURE, SceneStructureMsg)
+    labels = probe.subscribe(topics.SCENE_LABELS, Image)
+    msg = structures.wait(1, timeout=90)[0]
+    s = structure_from_msg(msg)
+    assert s.floor_found
+    assert s.camera_height == pytest.approx(1.5, abs=0.02)
+    assert s.camera_pitch_deg == pytest.approx(20.0, abs=0.5)
+    stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec)
+    lab = labels.wait(1, timeout=30, predicate=lambda m: (m.header.stamp.sec, m.header.stamp.nanosec) == stamp)[0]
+    arr = image_to_array(lab)
+    assert lab.encoding == "mono8" and arr.shape == (240, 320)
+    assert (arr[200:] == L.FLOOR).mean() > 0.5          # the floor in front of the camera
+    # run-time changes: a consistent one is applied, an inconsistent one refused with the reason
+    [(_, ok, _)] = probe.set_params("scene", {"obstacle_margin": 0.3})
+    assert ok
+    [(_, ok, reason)] = probe.set_params("scene", {"first_floor_min_height": 2.5})
+    assert not ok and "first_floor_min_height" in reason
+    assert probe.get_params("scene", ["first_floor_min_height"])["first_floor_min_height"] == 1.0
+
+
+def test_scene_node_refuses_impossible_settings_in_one_line(graph):
+    g = graph({"launch": {"nodes": [{"kind": "scene"}]},
+               "scene": {"ros__parameters": {"min_depth": 3.0, "max_depth": 2.0}}})
+    g.wait_for_output(r"configuration error: min_depth \(3.0\) must be below max_depth \(2.0\)")
+    g.proc.wait(timeout=30)
+    assert "Traceback" not in g.output
+
+
+def test_odometry_node_anchors_to_the_floor_and_follows_the_camera(graph, probe):
+    K = CameraIntrinsics.from_hfov(320, 240, 60.0)
+    room = SyntheticRoom(K)
+    graph({"launch": {"nodes": [{"kind": "scene"}, {"kind": "odometry"}]},
+           "odometry": {"ros__parameters": {"scale": 1.0}}})
+    pub_info = probe.publisher(topics.CAMERA_INFO, CameraInfo, SENSOR_QOS, wait_for_subscribers=2, timeout=90)
+    pub_color = probe.publisher(topics.COLOR, Image, SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    pub_depth = probe.publisher(topics.DEPTH, Image, SENSOR_QOS, wait_for_subscribers=2, timeout=60)
+    poses = probe.subscribe(topics.CAMERA_POSE, PoseStamped)
+
+    def camera(t):
+        T = np.eye(4)
+        T[:3, :3] = camera_rotation(math.radians(10 + 8 * t), math.radians(25.0))
+        T[:3, 3] = (-1.0 + 0.3 * t, -0.5, 1.6)
+        return T
+
+    truth = {}
+    for i in range(30):
+        t = 0.1 * i
+        T = camera(t)
+        rgb, depth = room.render(T)
+        header = Header(stamp=seconds_to_stamp(100.0 + t), frame_id="camera")
+        truth[(header.stamp.sec, header.stamp.nanosec)] = T
+        pub_info.publish(intrinsics_to_camera_info(K, header))
+        pub_color.publish(array_to_image(rgb, "rgb8", header))
+        pub_depth.publish(array_to_image(depth, "32FC1", header))
+        time.sleep(0.25)
+        if len(poses.messages) >= 5:
+            break
+    got = poses.wait(5, timeout=60)
+    # W: z up with the floor at z = 0 (the camera is 1.6 m up, looking 25° down, level sideways)
+    for m in got:
+        W = pose_to_matrix(m.pose)
+        assert m.header.frame_id == "world"
+        assert W[2, 3] == pytest.approx(1.6, abs=0.03)
+        assert math.degrees(math.asin(-W[2, 2])) == pytest.approx(25.0, abs=0.7)
+        assert abs(W[2, 0]) < 0.01
+    # the motion between published poses matches the truth
+    a, b = got[0], got[-1]
+    ta = truth[(a.header.stamp.sec, a.header.stamp.nanosec)]
+    tb = truth[(b.header.stamp.sec, b.header.stamp.nanosec)]
+    est = np.linalg.inv(pose_to_matrix(a.pose)) @ pose_to_matrix(b.pose)
+    true = np.linalg.inv(ta) @ tb
+    assert np.linalg.norm(est[:3, 3] - true[:3, 3]) < 0.03
