@@ -53,12 +53,12 @@ class BridgeNode(RaspvNode):
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
         self.spv = ParamClient(self, p["spv_node"])
-        self.requests: collections.deque[tuple[int, Callable[[int], None]]] = collections.deque()
+        self.requests: collections.deque[tuple[int, Callable[[int], None], float]] = collections.deque()
         self.requests_lock = threading.Lock()
         self.request_id = 0
         self.current: tuple[int, int, float] | None = None      # (request id, client, started)
         self.request_guard = self.create_guard_condition(self._next_request)
-        self.create_timer(0.5, self._check_request_timeout)
+        self.create_timer(0.1, self._check_requests)
         callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
                               on_param=self.on_param, on_event=lambda text: self.get_logger().info(text))
         try:
@@ -133,27 +133,51 @@ class BridgeNode(RaspvNode):
     # -- spv parameter requests, one at a time (executor thread) -----------------------------------
     def _queue(self, client: int, request: Callable[[int], None]) -> None:
         with self.requests_lock:
-            self.requests.append((client, request))
+            self.requests.append((client, request, time.monotonic()))
         self.request_guard.trigger()
 
+    def _spv_ready(self) -> bool:
+        # ParamClient has no public readiness check yet; the test probe uses the same clients
+        return self.spv._get.service_is_ready() and self.spv._set.service_is_ready()
+
     def _next_request(self) -> None:
+        """Start the oldest queued request once the previous one ended and the spv node's
+        parameter services are discovered (requests wait up to PARAM_REPLY_TIMEOUT_S for that)."""
         with self.requests_lock:
             if self.current is not None or not self.requests:
                 return
-            client, request = self.requests.popleft()
+            client, request, queued = self.requests[0]
+            ready = self._spv_ready()
+            if not ready and time.monotonic() - queued < PARAM_REPLY_TIMEOUT_S:
+                return                              # the 0.1 s timer tries again
+            self.requests.popleft()
             self.request_id += 1
             self.current = (self.request_id, client, time.monotonic())
             rid = self.request_id
-        request(rid)
+        if ready:
+            try:
+                request(rid)
+            except Exception as exc:  # noqa: BLE001 - one bad request must not stop the bridge
+                self._finish(rid, f"request failed: {exc}", ok=False)
+        else:
+            self._finish(rid, f"node {self.spv.target} is not running or not reachable", ok=False)
 
     def _get(self, rid: int, names: list[str], then: Callable[[dict[str, Any]], None]) -> None:
-        if not names:
-            then({})
-            return
+        """Current values of ``names`` (None for parameters the node lacks), one request per name
+        because a request naming an unknown parameter gets no values at all. No answer (the node
+        is absent) is reported by the timeout check."""
+        values: dict[str, Any] = {}
 
-        # values of parameters the node lacks come back as None; no answer at all (node absent)
-        # is reported by the timeout check
-        self.spv.get_async(names, then)
+        def ask(i: int) -> None:
+            if i == len(names):
+                then(values)
+                return
+
+            def got(answer: dict[str, Any]) -> None:
+                values[names[i]] = answer.get(names[i])
+                ask(i + 1)
+            self.spv.get_async([names[i]], got)
+        ask(0)
 
     def _set(self, rid: int, name: str, value: Any, current: Any, text: str) -> None:
         if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
@@ -172,14 +196,19 @@ class BridgeNode(RaspvNode):
             client = self.current[1]
             self.current = None
         self.server.notify(text, ok=ok, client=client)
-        (self.get_logger().info if ok else self.get_logger().warning)(f"client {client}: {text}")
+        if ok:      # (rclpy refuses two severities from one call site)
+            self.get_logger().info(f"client {client}: {text}")
+        else:
+            self.get_logger().warning(f"client {client}: {text}")
         self.request_guard.trigger()
 
-    def _check_request_timeout(self) -> None:
+    def _check_requests(self) -> None:
         with self.requests_lock:
-            current = self.current
+            current, waiting = self.current, bool(self.requests)
         if current is not None and time.monotonic() - current[2] > PARAM_REPLY_TIMEOUT_S:
             self._finish(current[0], f"node {self.spv.target} did not answer (is it running?)", ok=False)
+        elif current is None and waiting:
+            self._next_request()
 
     # -- lifecycle --------------------------------------------------------------------------------
     def close(self) -> None:
