@@ -54,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     play.add_argument("--remap", nargs="+", default=[], metavar="FROM:=TO", help="publish a topic under another name")
     play.add_argument("--no-clock", action="store_true", help="do not publish /clock")
     play.add_argument("--clock-rate", type=float, default=100.0, metavar="HZ", help="/clock rate (default 100)")
+    play.add_argument("--delay", type=float, default=0.0, metavar="S", help="wait S seconds before playing")
+    play.add_argument("--wait-for-subscribers", type=int, default=0, metavar="N",
+                      help="start once the played topics have N subscriptions in all (at most 30 s)")
 
     info = sub.add_parser("info", help="topics, counts, rates and problems of a bag")
     info.add_argument("bag", help="bag directory or .mcap/.db3 file")
@@ -228,6 +231,8 @@ def _play(args: argparse.Namespace) -> int:
         return _err("play", f"--rate must be > 0, got {args.rate}")
     if args.start < 0:
         return _err("play", f"--start must be >= 0, got {args.start}")
+    if args.delay < 0 or args.wait_for_subscribers < 0:
+        return _err("play", "--delay and --wait-for-subscribers must be >= 0")
     try:
         parse_remap(args.remap)
     except ValueError as exc:
@@ -237,7 +242,8 @@ def _play(args: argparse.Namespace) -> int:
     params = {"bag": str(Path(args.bag).resolve()), "rate": float(args.rate), "start_offset": float(args.start),
               "loop": bool(args.loop), "topics": list(args.topics), "exclude_topics": list(args.exclude),
               "remap": list(args.remap), "publish_clock": not args.no_clock,
-              "clock_rate": float(args.clock_rate), "at_end": "exit", "progress": sys.stderr.isatty()}
+              "clock_rate": float(args.clock_rate), "at_end": "exit", "progress": sys.stderr.isatty(),
+              "delay": float(args.delay), "wait_for_subscribers": int(args.wait_for_subscribers)}
     # An empty list in a parameter file reaches rclpy as "not set": leave empty lists out.
     params = {k: v for k, v in params.items() if v != []}
     apply_middleware_defaults()

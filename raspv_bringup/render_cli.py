@@ -10,25 +10,32 @@ import sys
 import time
 from pathlib import Path
 
+import yaml
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("bag", help="bag directory or .mcap/.db3 file")
     parser.add_argument("-o", "--output", metavar="VIDEO", help="mp4 file to write")
     parser.add_argument("--png-dir", metavar="DIR", help="also (or only) write every frame as a PNG here")
-    parser.add_argument("--device", default="default", help="device preset or YAML file (default: default)")
-    parser.add_argument("--mode", default="grey", help="representation mode (default: grey)")
-    parser.add_argument("--overlay", action="append", default=[], metavar="NAME", help="overlay on top of the mode")
-    parser.add_argument("--width", type=int, default=800, help="phosphene image width [px] (default 800)")
-    parser.add_argument("--rate", type=float, default=50.0, metavar="HZ",
-                        help="display rate = video frame rate = temporal model rate (default 50)")
-    parser.add_argument("--no-temporal", action="store_true", help="without the temporal model")
-    parser.add_argument("--green", action="store_true", help="green phosphenes (as in the headset)")
+    spv = parser.add_argument_group("phosphenes (the spv node's parameters; defaults as the node's)")
+    spv.add_argument("--params", metavar="FILE", help="take the spv parameters from a graph or parameter file "
+                                                      "(its 'spv' section)")
+    spv.add_argument("--device", help="device preset or YAML file (default: default)")
+    spv.add_argument("--mode", help="representation mode (default: grey)")
+    spv.add_argument("--overlay", action="append", default=None, metavar="NAME", help="overlay on top of the mode")
+    spv.add_argument("--width", type=int, help="phosphene image width [px] (default 800)")
+    spv.add_argument("--rate", type=float, metavar="HZ",
+                     help="display rate = video frame rate = temporal model rate (default 50)")
+    spv.add_argument("--no-temporal", action="store_true", help="without the temporal model")
+    spv.add_argument("--green", action="store_true", help="green phosphenes (as in the headset)")
+    spv.add_argument("--max-depth", type=float, metavar="M", help="depth modes: depth shown as level 0")
+    spv.add_argument("--dropout", type=float, help="fraction of phosphenes that never light")
+    spv.add_argument("--noise", type=float, metavar="PX", help="displayed position noise [px]")
+    spv.add_argument("--seed", type=int, help="seed of dropout and noise")
+    spv.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                     help="any other spv parameter, e.g. --set num_phosphenes=500 (see `raspv nodes`)")
     parser.add_argument("--side-by-side", action="store_true",
                         help="colour image and the mode's other inputs (depth) next to the phosphenes")
-    parser.add_argument("--max-depth", type=float, default=None, metavar="M", help="depth mode: depth shown as level 0")
-    parser.add_argument("--dropout", type=float, default=None, help="fraction of phosphenes that never light")
-    parser.add_argument("--noise", type=float, default=None, metavar="PX", help="displayed position noise [px]")
-    parser.add_argument("--seed", type=int, default=0, help="seed of dropout and noise (default 0)")
     parser.add_argument("--start", type=float, default=0.0, metavar="S", help="start S seconds into the bag")
     parser.add_argument("--duration", type=float, default=None, metavar="S", help="render at most S seconds")
     cam = parser.add_argument_group("intrinsics when the bag has no camera info")
@@ -38,6 +45,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--color-topic", default=None, help="colour topic (default /camera/color/image_raw)")
     parser.add_argument("--depth-topic", default=None, help="depth topic (default /camera/depth/image_raw)")
     parser.add_argument("--info-topic", default=None, help="camera info topic (default /camera/color/camera_info)")
+
+
+def _spv_params(args: argparse.Namespace) -> dict:
+    """spv parameter values from --params FILE, then the flags, then --set (ValueError if bad)."""
+    out: dict = {}
+    if args.params:
+        try:
+            data = yaml.safe_load(Path(args.params).read_text())
+        except (OSError, yaml.YAMLError) as exc:
+            raise ValueError(f"{args.params}: cannot read ({exc})") from None
+        section = (data or {}).get("spv") or (data or {}).get("/**") if isinstance(data, dict) else None
+        if not isinstance(section, dict) or not isinstance(section.get("ros__parameters", {}), dict):
+            raise ValueError(f"{args.params}: no 'spv: ros__parameters:' section")
+        out.update(section.get("ros__parameters") or {})
+    flags = {"device": args.device, "mode": args.mode, "width": args.width, "rate": args.rate,
+             "max_depth": args.max_depth, "dropout": args.dropout, "noise_px": args.noise, "seed": args.seed,
+             "overlays": args.overlay}
+    out.update({k: v for k, v in flags.items() if v is not None})
+    if args.no_temporal:
+        out["temporal"] = False
+    if args.green:
+        out["output_format"] = "green"
+    for item in args.set:
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"bad --set {item!r}: expected NAME=VALUE")
+        out[name.strip()] = yaml.safe_load(text)
+    return out
 
 
 def _bar(done: float, total: float, started: float, width: int = 30) -> str:
@@ -72,17 +107,11 @@ def run(args: argparse.Namespace) -> int:
             intrinsics = load_intrinsics_file(Path(args.intrinsics))
         except FramesError as exc:
             return fail(str(exc))
-    spv: dict = {"seed": args.seed}
-    if args.max_depth is not None:
-        spv["mode_settings"] = {"max_depth": args.max_depth}
-    if args.dropout is not None:
-        spv["dropout"] = args.dropout
-    if args.noise is not None:
-        spv["noise_px"] = args.noise
-    s = RenderSettings(device=args.device, mode=args.mode, overlays=tuple(args.overlay), width=args.width,
-                       display_rate=args.rate, temporal=not args.no_temporal,
-                       output_format="green" if args.green else "mono8", spv=spv,
-                       side_by_side=args.side_by_side, start_s=args.start, duration_s=args.duration,
+    try:
+        spv = _spv_params(args)
+    except ValueError as exc:
+        return fail(str(exc))
+    s = RenderSettings(spv=spv, side_by_side=args.side_by_side, start_s=args.start, duration_s=args.duration,
                        intrinsics=intrinsics)
     for attr in ("color_topic", "depth_topic", "info_topic"):
         if getattr(args, attr):
@@ -105,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     for note in report.notes:
         print(f"note: {note}", file=sys.stderr)
     outputs = " and ".join(str(p) for p in (report.video, report.png_dir) if p is not None)
-    print(f"{outputs}: {report.frames} frames {report.size[0]}x{report.size[1]} at {args.rate:g} Hz from "
+    print(f"{outputs}: {report.frames} frames {report.size[0]}x{report.size[1]} at {report.rate:g} Hz from "
           f"{report.camera_frames} camera frames ({report.bag_s:.1f} s of bag in {report.wall_s:.1f} s, "
           f"{report.speed:.1f}x real time)")
     return 0

@@ -81,11 +81,11 @@ def render_part(bag: Path, workdir: Path, device: str, extra: bool) -> dict:
           f"(wall time includes opening the bag and building the simulator; load average {load:.1f} "
           f"on {os.cpu_count()} cores)")
     results = {}
-    cases = [("default: grey, temporal, 800x800 @ 50 Hz, mp4", dict(device=device))]
+    cases = [("default: grey, temporal, 800x800 @ 50 Hz, mp4", dict(spv={"device": device}))]
     if extra:
-        cases += [("depth mode", dict(device=device, mode="depth")),
-                  ("side by side (colour | phosphenes)", dict(device=device, side_by_side=True)),
-                  ("without the temporal model", dict(device=device, temporal=False))]
+        cases += [("depth mode", dict(spv={"device": device, "mode": "depth"})),
+                  ("side by side (colour | phosphenes)", dict(spv={"device": device}, side_by_side=True)),
+                  ("without the temporal model", dict(spv={"device": device, "temporal": False}))]
     for i, (label, kw) in enumerate(cases):
         runs = [_render(bag, workdir / f"render{i}.mp4", **kw) for _ in range(3 if i == 0 else 1)]
         speed, frames, wall = sorted(runs)[len(runs) // 2]

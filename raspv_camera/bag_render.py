@@ -35,7 +35,7 @@ from raspv_camera.bag_reader import BagError, BagMessage, BagReader
 from raspv_common import topics as T
 from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, pose_to_matrix, rgb_from_image
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_spv.config import spv_config
+from raspv_spv.config import config_from_node_params
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.simulator import InputError, PhospheneSimulator
 
@@ -50,17 +50,12 @@ class RenderError(ValueError):
 
 @dataclass
 class RenderSettings:
-    """What to render. ``spv``: further :func:`raspv_spv.config.spv_config` arguments
-    (``mode_settings``, ``dropout``, ``num_phosphenes`` …). ``intrinsics``: fx, fy, cx, cy [px]
-    used when the bag has no camera info (or to override it)."""
+    """What to render. ``spv``: values of the ``spv`` node's parameters (``device``, ``mode``,
+    ``width``, ``rate``, ``temporal``, ``max_depth`` …, see ``raspv_spv/spv_params.py``); the
+    others keep the node's defaults, so a render shows what the live node shows with the same
+    parameters. ``intrinsics``: fx, fy, cx, cy [px] used when the bag has no camera info (or
+    to override it)."""
 
-    device: str = "default"
-    mode: str = "grey"
-    overlays: tuple[str, ...] = ()
-    width: int = 800
-    display_rate: float = 50.0
-    temporal: bool = True
-    output_format: str = "mono8"
     spv: dict[str, Any] = field(default_factory=dict)
     side_by_side: bool = False
     start_s: float = 0.0
@@ -71,6 +66,18 @@ class RenderSettings:
     info_topic: str = T.CAMERA_INFO
     pose_topic: str = T.CAMERA_POSE
     pair_tolerance_s: float = 0.02
+
+    def spv_params(self) -> dict[str, Any]:
+        """The spv node's parameter values: defaults plus :attr:`spv`, validated by the node's
+        schema (:class:`RenderError` naming what is allowed)."""
+        from raspv_common.params import ParamSchema
+        from raspv_spv.spv_params import PARAMS
+
+        schema = ParamSchema.of(PARAMS)
+        values, errors = schema.validate(self.spv)
+        if errors:
+            raise RenderError("; ".join(f"{k}: {m}" for k, m in errors))
+        return {**schema.defaults(), **values}
 
 
 @dataclass
@@ -88,6 +95,7 @@ class RenderReport:
     video: Path | None
     png_dir: Path | None
     size: tuple[int, int]     # output frame width, height
+    rate: float               # display rate = video frame rate [Hz]
     notes: list[str]
 
     @property
@@ -99,13 +107,13 @@ class RenderReport:
 class BagFrameSource:
     """RGB-D frames of a bag (see the module docstring)."""
 
-    def __init__(self, reader: BagReader, settings: RenderSettings, needs: frozenset[str]) -> None:
+    def __init__(self, reader: BagReader, settings: RenderSettings, needs: frozenset[str], mode: str) -> None:
         self.reader = reader
         self.s = settings
         self.notes: list[str] = []
         unsupported = sorted(needs - BAG_INPUTS)
         if unsupported:
-            raise RenderError(f"mode {settings.mode!r} needs {', '.join(unsupported)}, which comes from perception "
+            raise RenderError(f"mode {mode!r} needs {', '.join(unsupported)}, which comes from perception "
                               f"nodes; offline rendering provides {', '.join(sorted(BAG_INPUTS))}")
         self.want_color = "color" in needs or settings.side_by_side
         self.want_depth = "depth" in needs
@@ -116,7 +124,7 @@ class BagFrameSource:
                                   (self.want_depth, settings.depth_topic, "depth"),
                                   (self.want_pose, settings.pose_topic, "camera pose")):
             if want and topic not in have:
-                raise RenderError(f"mode {settings.mode!r} needs {what} images but the bag has no {topic} "
+                raise RenderError(f"mode {mode!r} needs {what} images but the bag has no {topic} "
                                   f"(its topics: {listing})")
         if self.want_color and settings.color_topic not in have:
             self.want_color = False
@@ -365,28 +373,27 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
     s = settings or RenderSettings()
     if video is None and png_dir is None:
         raise RenderError("give an output: a video file and/or a PNG folder")
-    if not s.display_rate > 0:
-        raise RenderError(f"display rate must be > 0 Hz, got {s.display_rate}")
+    params = s.spv_params()
     try:
-        config = spv_config(s.device, width=s.width, mode=s.mode, overlays=s.overlays, temporal=s.temporal,
-                            frame_rate=s.display_rate, output_format=s.output_format, **s.spv)
-        sim = PhospheneSimulator(config)
+        sim = PhospheneSimulator(config_from_node_params(params))  # as the spv node builds it
     except (KeyError, ValueError) as exc:
         raise RenderError(f"phosphene simulator: {exc.args[0] if exc.args else exc}") from None
+    config = sim.config
+    display_rate = config.frame_rate
     t_wall = time.monotonic()
     with BagReader(bag) as reader:
         if reader.start_ns is None:
             raise RenderError(f"{bag}: the bag has no messages")
-        source = BagFrameSource(reader, s, sim.needs)
+        source = BagFrameSource(reader, s, sim.needs, config.mode)
         start_ns = reader.start_ns + int(s.start_s * 1e9)
         end_ns = reader.end_ns if s.duration_s is None else min(reader.end_ns, start_ns + int(s.duration_s * 1e9))
         if start_ns > reader.end_ns:
             raise RenderError(f"start {s.start_s:.2f} s is past the end of the bag ({reader.duration_s:.2f} s)")
         total_s = (end_ns - start_ns) * 1e-9
-        max_depth = float(sim.mode.settings.get("max_depth", 3.0))
+        max_depth = float(params["max_depth"])
         title = f"{config.device.name}, {config.mode}" + ("".join(f" + {o}" for o in config.overlays))
         composer = PanelComposer(config.height, sim.needs, max_depth, title) if s.side_by_side else None
-        period_ns = 1e9 / s.display_rate
+        period_ns = 1e9 / display_rate
         sink: _VideoSink | None = None
         png = Path(png_dir) if png_dir is not None else None
         if png is not None:
@@ -405,7 +412,7 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
             if video is not None:
                 if sink is None:
                     size = (frame.shape[1], frame.shape[0])
-                    sink = _VideoSink(Path(video), s.display_rate, size, color=frame.ndim == 3)
+                    sink = _VideoSink(Path(video), display_rate, size, color=frame.ndim == 3)
                 sink.write(frame)
             if png is not None:
                 cv2.imwrite(str(png / f"frame_{written:06d}.png"), frame)
@@ -445,4 +452,4 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
             progress(total_s, total_s)
         notes = list(dict.fromkeys(reader.notes + source.notes))
     return RenderReport(written, used, total_s, time.monotonic() - t_wall, Path(video) if video else None,
-                        png, size, notes)
+                        png, size, display_rate, notes)

@@ -98,7 +98,24 @@ class ReplayNode(RaspvNode):
         msg.clock.sec, msg.clock.nanosec = divmod(int(bag_ns), 1_000_000_000)
         self.pub_clock.publish(msg)
 
+    def _wait_before_start(self) -> None:
+        """``delay``, then ``wait_for_subscribers`` (at most 30 s), unless stopped meanwhile."""
+        stop = self.player._stop
+        if self.params["delay"] > 0 and stop.wait(self.params["delay"]):
+            return
+        need = self.params["wait_for_subscribers"]
+        deadline = time.monotonic() + 30.0
+        while need and not stop.is_set():
+            have = sum(p.get_subscription_count() for p in self.publishers_by_topic.values())
+            if have >= need:
+                return
+            if time.monotonic() > deadline:
+                self.get_logger().warning(f"only {have} of {need} subscriptions after 30 s; starting anyway")
+                return
+            stop.wait(0.05)
+
     def _play(self) -> None:
+        self._wait_before_start()
         try:
             self.report = self.player.run()
         except Exception as exc:  # a reading failure the reader could not absorb

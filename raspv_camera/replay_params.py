@@ -13,6 +13,10 @@ PARAMS = [
     Param("publish_clock", True, "publish the bag's time on /clock (for nodes with use_sim_time)", dynamic=False),
     Param("clock_rate", 100.0, "/clock messages per second between bag messages", minimum=0.0, maximum=1000.0,
           dynamic=False, unit="Hz"),
+    Param("wait_for_subscribers", 0, "start once the replayed topics have this many subscriptions in all "
+          "(at most 30 s)", minimum=0, maximum=1000, dynamic=False),
+    Param("delay", 0.0, "wait this long before starting (e.g. for late subscribers)", minimum=0.0, maximum=3600.0,
+          dynamic=False, unit="s"),
     Param("at_end", "hold", "at the end of the bag: 'hold' (keep running, publish nothing more) or 'exit'",
           choices=("hold", "exit"), dynamic=False),
     Param("progress", False, "print a live status line on stderr (raspv bag play sets it)", dynamic=False),

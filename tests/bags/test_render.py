@@ -15,7 +15,7 @@ from raspv_spv.simulator import render_frame
 
 from .conftest import make_rgbd_bag
 
-SMALL = dict(width=200)  # a 200×200 phosphene image keeps the tests fast
+SMALL = {"width": 200}  # a 200×200 phosphene image keeps the tests fast
 
 
 def _video_frames(path):
@@ -31,7 +31,7 @@ def _video_frames(path):
 
 
 def test_mp4_has_one_frame_per_display_tick_and_plays_back(rgbd_bag, tmp_path):
-    report = render_bag(rgbd_bag, tmp_path / "out.mp4", settings=RenderSettings(**SMALL))
+    report = render_bag(rgbd_bag, tmp_path / "out.mp4", settings=RenderSettings(spv=SMALL))
     # 12 frames at 10 Hz span 1.1 s; display ticks every 20 ms from the first frame: 56 ticks
     assert report.frames == 56 and report.camera_frames == 12
     frames = _video_frames(tmp_path / "out.mp4")
@@ -45,7 +45,7 @@ def test_frames_are_the_live_simulators_images(rgbd_bag, tmp_path):
     from raspv_common import topics as T
     from raspv_common.conversions import rgb_from_image
 
-    report = render_bag(rgbd_bag, None, tmp_path / "png", RenderSettings(temporal=False, **SMALL))
+    report = render_bag(rgbd_bag, None, tmp_path / "png", RenderSettings(spv={**SMALL, "temporal": False}))
     pngs = sorted((tmp_path / "png").glob("*.png"))
     assert len(pngs) == report.frames == 56
     with BagReader(rgbd_bag) as r:
@@ -56,8 +56,8 @@ def test_frames_are_the_live_simulators_images(rgbd_bag, tmp_path):
 
 
 def test_side_by_side_shows_colour_and_depth_next_to_the_phosphenes(rgbd_bag, tmp_path):
-    report = render_bag(rgbd_bag, tmp_path / "s.mp4", settings=RenderSettings(mode="depth", side_by_side=True,
-                                                                              duration_s=0.2, **SMALL))
+    report = render_bag(rgbd_bag, tmp_path / "s.mp4", settings=RenderSettings(spv={**SMALL, "mode": "depth"},
+                                                                              side_by_side=True, duration_s=0.2))
     # colour 64x48 and depth scaled to 200 px high (267 px wide each) + 200 px of phosphenes
     assert report.size == (267 + 267 + 200, 200)
     assert _video_frames(tmp_path / "s.mp4")[0].shape == (200, 734, 3)
@@ -66,7 +66,7 @@ def test_side_by_side_shows_colour_and_depth_next_to_the_phosphenes(rgbd_bag, tm
 def test_real_frames_render_through_from_frames(data_dir, tmp_path):
     frames = discover_frames(data_dir / "rgbd" / "kinect_table")
     write_frames_bag(frames, {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}, tmp_path / "bag")
-    report = render_bag(tmp_path / "bag", tmp_path / "real.mp4", settings=RenderSettings(mode="depth", **SMALL))
+    report = render_bag(tmp_path / "bag", tmp_path / "real.mp4", settings=RenderSettings(spv={**SMALL, "mode": "depth"}))
     assert report.frames == len(_video_frames(tmp_path / "real.mp4")) == 26  # 0.518 s at 50 Hz
 
 
@@ -80,13 +80,13 @@ def test_missing_camera_info_needs_intrinsics(tmp_path):
             w.write("/camera/color/image_raw", 10**9 + i * 10**8,
                     ser.image(np.full((48, 64, 3), 100, np.uint8), "rgb8", ser.header(10**9 + i * 10**8, "c")))
     with pytest.raises(RenderError, match="no camera info.*intrinsics"):
-        render_bag(tmp_path / "noinfo", tmp_path / "a.mp4", settings=RenderSettings(**SMALL))
+        render_bag(tmp_path / "noinfo", tmp_path / "a.mp4", settings=RenderSettings(spv=SMALL))
     report = render_bag(tmp_path / "noinfo", tmp_path / "b.mp4",
-                        settings=RenderSettings(intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}, **SMALL))
+                        settings=RenderSettings(spv=SMALL, intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}))
     assert report.frames == 21
     with pytest.raises(RenderError, match="needs depth images but the bag has no /camera/depth/image_raw"):
         render_bag(tmp_path / "noinfo", tmp_path / "c.mp4",
-                   settings=RenderSettings(mode="depth", intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}))
+                   settings=RenderSettings(spv={"mode": "depth"}, intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}))
 
 
 def test_mismatched_depth_size_is_resampled_or_skipped(tmp_path):
@@ -98,7 +98,7 @@ def test_mismatched_depth_size_is_resampled_or_skipped(tmp_path):
         out.add(1.1, np.full((48, 64, 3), 90, np.uint8), np.full((48, 20), 1.0, np.float32), cam)   # other shape
         out.add(1.2, np.full((48, 64, 3), 90, np.uint8), np.full((48, 64), 1.0, np.float32), cam)
     report = render_bag(tmp_path / "mix", tmp_path / "m.mp4",
-                        settings=RenderSettings(mode="depth", side_by_side=True, **SMALL))
+                        settings=RenderSettings(spv={**SMALL, "mode": "depth"}, side_by_side=True))
     assert report.camera_frames == 2
     assert any("resampled" in n for n in report.notes) and any("differ in shape" in n for n in report.notes)
 
@@ -106,10 +106,12 @@ def test_mismatched_depth_size_is_resampled_or_skipped(tmp_path):
 def test_bad_requests_are_refused(rgbd_bag, tmp_path):
     with pytest.raises(RenderError, match="give an output"):
         render_bag(rgbd_bag)
-    with pytest.raises(RenderError, match="unknown mode"):
-        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(mode="nonsense"))
+    with pytest.raises(RenderError, match="mode: 'nonsense' is not allowed"):
+        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(spv={"mode": "nonsense"}))
+    with pytest.raises(RenderError, match="unknown parameter"):
+        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(spv={"colour": 1}))
     with pytest.raises(RenderError, match="past the end"):
-        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(start_s=10.0, **SMALL))
+        render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(spv=SMALL, start_s=10.0))
     with pytest.raises(BagError, match="no such bag"):
         render_bag(tmp_path / "missing", tmp_path / "x.mp4")
 
@@ -120,6 +122,13 @@ def test_command_line(tmp_path, capsys):
                   "--green", "--side-by-side"]) == 0
     out = capsys.readouterr().out
     assert "21 frames" in out and "x real time" in out
+    params = tmp_path / "graph.yaml"
+    params.write_text("spv:\n  ros__parameters: {device: argus_ii, width: 120, mode: depth}\n")
+    assert raspv(["render", str(bag), "--png-dir", str(tmp_path / "png"), "--params", str(params),
+                  "--set", "num_levels=4", "--no-temporal"]) == 0
+    assert "21 frames 120x72" in capsys.readouterr().out  # argus_ii: aspect 0.6
+    assert raspv(["render", str(bag), "--png-dir", str(tmp_path / "png2"), "--set", "num_levels=1000"]) == 1
+    assert "num_levels" in capsys.readouterr().err
     assert raspv(["render", str(bag), "-o", str(tmp_path / "o.avi")]) == 1
     assert "must be an .mp4 file" in capsys.readouterr().err
     assert raspv(["render", str(tmp_path / "nope"), "-o", str(tmp_path / "n.mp4")]) == 1
