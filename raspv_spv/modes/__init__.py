@@ -14,6 +14,10 @@ MODES: dict[str, str] = {
     "depth": "raspv_spv.modes.depth:DepthMode",
     "edges": "raspv_spv.modes.edges:EdgesMode",
     "edges_depth": "raspv_spv.modes.edges:DepthEdgesMode",
+    "chess_floor": "raspv_spv.modes.chess_floor:ChessFloorMode",
+    "wall_obstacles": "raspv_spv.modes.wall_obstacles:WallObstaclesMode",
+    "chess_wall_obstacles": "raspv_spv.modes.chess_wall_obstacles:ChessWallObstaclesMode",
+    "depth_no_floor": "raspv_spv.modes.depth_no_floor:DepthNoFloorMode",
 }
 
 OVERLAYS: dict[str, str] = {
