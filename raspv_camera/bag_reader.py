@@ -154,7 +154,7 @@ def _open_file(path: Path, notes: list[str]):
         try:
             src = _SalvageSource(path)
         except McapDamaged as exc:
-            raise BagError(f"{path}: {exc} ({first})") from None
+            raise BagError(str(exc)) from None
         if not src.topics:
             raise BagError(f"{path}: no readable records ({src.stop_reason or first})")
         notes.append(f"{path.name}: incomplete MCAP ({first}); read what it holds: "

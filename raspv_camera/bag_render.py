@@ -303,25 +303,46 @@ def depth_panel(depth: np.ndarray, max_depth: float) -> np.ndarray:
 
 
 class PanelComposer:
-    """Side-by-side frames: colour | other inputs | phosphenes, all at the phosphene height."""
+    """Side-by-side frames: colour | other inputs | phosphenes, all at the phosphene height.
+    The camera panels outline the part of the camera image the prosthesis field of view covers
+    (the phosphene image's border seen through K_C·K_P⁻¹)."""
 
-    def __init__(self, height: int, needs: frozenset[str], max_depth: float, title: str) -> None:
+    def __init__(self, height: int, needs: frozenset[str], max_depth: float, title: str,
+                 K_P: np.ndarray, phosphene_size: tuple[int, int]) -> None:
         self.height = height
         self.needs = needs
         self.max_depth = max_depth
         self.title = title
+        w, h = phosphene_size
+        border = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1]], dtype=float)
+        self._border_rays = border @ np.linalg.inv(K_P).T
+        self._outline: dict[CameraIntrinsics, np.ndarray] = {}
 
-    def _fit(self, img: np.ndarray) -> np.ndarray:
+    def _fit(self, img: np.ndarray) -> tuple[np.ndarray, float]:
         h, w = img.shape[:2]
-        return cv2.resize(img, (max(1, int(round(w * self.height / h))), self.height), interpolation=cv2.INTER_AREA)
+        scale = self.height / h
+        return cv2.resize(img, (max(1, int(round(w * scale))), self.height), interpolation=cv2.INTER_AREA), scale
+
+    def _draw_field(self, panel: np.ndarray, scale: float, camera: CameraIntrinsics | None) -> np.ndarray:
+        if camera is None:
+            return panel
+        poly = self._outline.get(camera)
+        if poly is None:
+            u, v, _ = camera.project(self._border_rays)
+            poly = self._outline[camera] = np.stack([u + 0.5, v + 0.5], axis=1)  # pixel centres → corners
+        pts = np.round(poly * scale).astype(np.int32).reshape(-1, 1, 2)
+        cv2.polylines(panel, [pts], True, (0, 255, 255), max(1, self.height // 300), cv2.LINE_AA)
+        return panel
 
     def compose(self, phosphenes: np.ndarray, inputs: FrameInputs | None) -> np.ndarray:
         panels = []
+        cam = inputs.camera if inputs is not None else None
         if inputs is not None and inputs.color is not None:
-            panels.append(_label(self._fit(cv2.cvtColor(inputs.color, cv2.COLOR_RGB2BGR)), "colour"))
+            img, k = self._fit(cv2.cvtColor(inputs.color, cv2.COLOR_RGB2BGR))
+            panels.append(_label(self._draw_field(img, k, cam), "colour (yellow: prosthesis field of view)"))
         if inputs is not None and inputs.depth is not None and "depth" in self.needs:
-            panels.append(_label(self._fit(depth_panel(inputs.depth, self.max_depth)),
-                                 f"depth 0-{self.max_depth:g} m"))
+            img, k = self._fit(depth_panel(inputs.depth, self.max_depth))
+            panels.append(_label(self._draw_field(img, k, cam), f"depth 0-{self.max_depth:g} m"))
         panels.append(_label(_bgr(phosphenes).copy(), self.title))
         return np.hstack(panels)
 
@@ -392,7 +413,8 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
         total_s = (end_ns - start_ns) * 1e-9
         max_depth = float(params["max_depth"])
         title = f"{config.device.name}, {config.mode}" + ("".join(f" + {o}" for o in config.overlays))
-        composer = PanelComposer(config.height, sim.needs, max_depth, title) if s.side_by_side else None
+        composer = (PanelComposer(config.height, sim.needs, max_depth, title, sim.map.K, (config.width, config.height))
+                    if s.side_by_side else None)
         period_ns = 1e9 / display_rate
         sink: _VideoSink | None = None
         png = Path(png_dir) if png_dir is not None else None
@@ -409,9 +431,9 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
             image = sim.render(brightness)
             # mono8 phosphenes go to a single-channel writer/PNG as they are (no conversion)
             frame = composer.compose(image, current.inputs) if composer else (_bgr(image) if image.ndim == 3 else image)
+            size = (frame.shape[1], frame.shape[0])
             if video is not None:
                 if sink is None:
-                    size = (frame.shape[1], frame.shape[0])
                     sink = _VideoSink(Path(video), display_rate, size, color=frame.ndim == 3)
                 sink.write(frame)
             if png is not None:
