@@ -509,6 +509,8 @@ class HeadsetServer:
                 self._rejected["origin"] += 1
                 return _response(403, f"WebSocket from another origin ({origin}) refused")
             return None
+        if url.path == "/favicon.ico":
+            return _response(204, b"")
         if url.path not in STATIC_FILES:
             return _response(404, f"{url.path} not found; the client page is at /")
         name, content_type = STATIC_FILES[url.path]
@@ -749,7 +751,7 @@ class HeadsetServer:
 
 def _response(status: int, body: str | bytes, content_type: str = "text/plain; charset=utf-8") -> Response:
     data = body.encode() if isinstance(body, str) else body
-    reason = {200: "OK", 403: "Forbidden", 404: "Not Found"}.get(status, "")
+    reason = {200: "OK", 204: "No Content", 403: "Forbidden", 404: "Not Found"}.get(status, "")
     headers = Headers([("Content-Type", content_type), ("Content-Length", str(len(data))),
                        ("Cache-Control", "no-store"), ("X-Content-Type-Options", "nosniff"),
                        ("Content-Security-Policy", CSP), ("Connection", "close")])

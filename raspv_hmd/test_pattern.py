@@ -33,6 +33,8 @@ class PhospheneTestPattern:
         g = cv2.getGaussianKernel(size, sigma).astype(np.float32)
         self._kernel_1d = g / g.max()            # separable sprite with peak 1
         self._impulses = np.zeros((height, width), np.float32)
+        scatter = (np.arange(len(xs)) * 2654435761) % 97          # a fixed scatter of dim steady dots
+        self._steady = np.where(scatter < 12, 2, 0)
 
     def frame(self, t: float) -> np.ndarray:
         """The pattern at time ``t`` [s]: a bright bar moving left → right once per period."""
@@ -40,7 +42,7 @@ class PhospheneTestPattern:
         centre = phase * self.width
         dist = np.abs(self.x - centre) / (0.15 * self.width)
         level = np.clip(np.round((self.levels - 1) * (1.0 - dist)), 0, self.levels - 1)
-        level = np.maximum(level, ((self.y * 7 + self.x * 3) % 5 == 0) * 2)      # a few steady dots
+        level = np.maximum(level, self._steady)
         self._impulses[self.y, self.x] = level / (self.levels - 1)
         out = cv2.sepFilter2D(self._impulses, -1, self._kernel_1d, self._kernel_1d, borderType=cv2.BORDER_CONSTANT)
         return np.clip(out * 255.0, 0.0, 255.0).astype(np.uint8)

@@ -363,7 +363,6 @@
       const glCanvas = document.createElement("canvas");
       const gl = glCanvas.getContext("webgl", { xrCompatible: true, alpha: false });
       if (!gl) throw new Error("no WebGL");
-      if (gl.makeXRCompatible) await gl.makeXRCompatible();
       session.updateRenderState({ baseLayer: new XRWebGLLayer(session, gl) });
       const space = await session.requestReferenceSpace("local");
       xrGl = makeQuadRenderer(gl);
