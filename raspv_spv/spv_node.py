@@ -1,7 +1,7 @@
 """`spv` node: the phosphene simulator in the graph.
 
 Inputs (only those the mode and overlays need are subscribed): colour, depth, camera info,
-camera pose. Every new frame of the mode's main input (colour, else depth) is turned into
+camera pose, scene structure and labels (from the `scene` node). Every new frame of the mode's main input (colour, else depth) is turned into
 levels by the :class:`~raspv_spv.simulator.PhospheneSimulator`, in its own callback group.
 A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) advances the
 temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
@@ -26,11 +26,13 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
-from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image, pose_to_matrix,
-                                      rgb_from_image, stamp_to_seconds)
+from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image, image_to_array,
+                                      pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_msgs.msg import SceneStructure as SceneStructureMsg
+from raspv_perception.scene_msg import structure_from_msg
 from raspv_spv.config import config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
@@ -67,8 +69,9 @@ class SpvNode(RaspvNode):
         self._display_group = MutuallyExclusiveCallbackGroup()
         # latest inputs and the levels computed from them
         self.color = self.depth = self.pose = None
+        self.scene = self.scene_labels = None          # scene perception (scene modes)
         self.intrinsics = None
-        self.stamps = {"color": 0.0, "depth": 0.0}
+        self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0}
         self._waiting_since: float | None = None
         self._levels: tuple[int, np.ndarray, float] | None = None   # (map_id, levels, source stamp)
         # display statistics
@@ -121,9 +124,12 @@ class SpvNode(RaspvNode):
         return None
 
     def _update_subscriptions(self, needs: frozenset[str]) -> None:
-        """Subscribe to the inputs the mode and overlays read, and only those."""
+        """Subscribe to the inputs the mode and overlays read (needed or optional), and only those."""
+        needs = frozenset(needs) | getattr(self.sim.mode, "optional_inputs", frozenset())
         wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
-                  "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose)}
+                  "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose),
+                  "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
+                  "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
                 self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS,
@@ -166,12 +172,34 @@ class SpvNode(RaspvNode):
         except ValueError as exc:
             self.warn_throttled("pose", f"ignoring camera pose: {exc}")
 
+    def on_scene(self, msg: SceneStructureMsg) -> None:
+        self.scene = structure_from_msg(msg)
+        self.stamps["scene"] = stamp_to_seconds(msg.header.stamp)
+        self._frame_arrived("scene")
+
+    def on_scene_labels(self, msg: Image) -> None:
+        if msg.encoding not in ("mono8", "8UC1"):
+            self.warn_throttled("labels", f"ignoring {topics.SCENE_LABELS}: expected mono8, got {msg.encoding!r}")
+            return
+        try:
+            self.scene_labels = image_to_array(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("labels", f"ignoring {topics.SCENE_LABELS}: {exc}")
+            return
+        self.stamps["scene_labels"] = stamp_to_seconds(msg.header.stamp)
+        self._frame_arrived("scene_labels")
+
     def _frame_arrived(self, which: str) -> None:
-        """Recompute the levels when the mode's main input (colour, else depth) arrives."""
+        """Recompute the levels when the mode's main input (colour, else depth) arrives; for
+        scene modes, when the scene structure and labels of one depth frame are both in."""
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
-        main = "color" if "color" in sim.needs else "depth"
-        if which != main:
+        scene_inputs = [n for n in ("scene", "scene_labels") if n in sim.needs]
+        if scene_inputs:
+            # scene modes run when the scene node's outputs of one depth frame are all in
+            if which not in scene_inputs or len({self.stamps[n] for n in scene_inputs}) > 1:
+                return
+        elif which != ("color" if "color" in sim.needs else "depth"):
             return
         if self.intrinsics is None:
             now = time.monotonic()
@@ -181,7 +209,7 @@ class SpvNode(RaspvNode):
                                                "phosphenes stay off until it comes")
             return
         inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
-                             camera_pose=self.pose)
+                             camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels)
         try:
             levels = sim.levels(inputs)
         except InputError as exc:

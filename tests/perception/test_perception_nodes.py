@@ -96,3 +96,28 @@ def test_odometry_node_anchors_to_the_floor_and_follows_the_camera(graph, probe)
     est = np.linalg.inv(pose_to_matrix(a.pose)) @ pose_to_matrix(b.pose)
     true = np.linalg.inv(ta) @ tb
     assert np.linalg.norm(est[:3, 3] - true[:3, 3]) < 0.03
+
+
+def test_spv_node_runs_the_scene_modes_from_the_scene_node(graph, probe):
+    graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "scene"}, {"kind": "spv"}]},
+           "cam": {"ros__parameters": {"rate": 5.0, "width": 320, "height": 240, "walk_speed": 0.3,
+                                       "pitch_down_deg": 30.0}},
+           "spv": {"ros__parameters": {"device": "optimist", "mode": "chess_floor", "temporal": False,
+                                       "width": 200, "rate": 10.0}}})
+    from raspv_msgs.msg import PhospheneFrame
+
+    def levels_of(mode):
+        frame = probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=90,
+                                       predicate=lambda m: m.mode == mode and any(m.levels))
+        return np.array(frame.levels)
+
+    chess = levels_of("chess_floor")
+    assert set(np.unique(chess)) == {0, 4, 7}          # off, half, full of 8 levels
+    [(_, ok, _)] = probe.set_params("spv", {"mode": "wall_obstacles"})
+    assert ok
+    walls = levels_of("wall_obstacles")
+    assert 4 in walls                                   # the walls at half level
+    results = probe.set_params("spv", {"mode": "chess_wall_obstacles", "chess_tile": 1.0})
+    assert all(ok for _, ok, _ in results)
+    both = levels_of("chess_wall_obstacles")
+    assert {4, 7} <= set(np.unique(both))
