@@ -1,7 +1,8 @@
 """`spv` node: the phosphene simulator in the graph.
 
 Inputs (only those the mode and overlays need are subscribed): colour, depth, camera info,
-camera pose, scene structure and labels (from the `scene` node). Every new frame of the mode's main input (colour, else depth) is turned into
+camera pose, scene structure and labels (from the `scene` node). Every new frame of the mode's
+main input (colour, else depth; for scene modes the scene node's outputs) is turned into
 levels by the :class:`~raspv_spv.simulator.PhospheneSimulator`, in its own callback group.
 A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) advances the
 temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
