@@ -67,9 +67,9 @@ class BridgeNode(RaspvNode):
             raise ConfigurationError(str(exc)) from None
         self.frames = 0
         self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
-        tcp = f"; native clients: tcp://{p['host']}:{self.server.tcp_port}" if self.server.tcp_port else ""
-        for url in self.server.urls():
-            print(f"headset client: open {url} in a browser{tcp}", flush=True)
+        for page, tcp in self.server.endpoints():
+            native = f"; native clients: {tcp}" if tcp else ""
+            print(f"headset client: open {page} in a browser{native}", flush=True)
         if self.server.token and not p["token"]:
             print(f"bridge token (generated, listening on {p['host']}): {self.server.token}", flush=True)
 

@@ -8,7 +8,9 @@ is its executable form (parsing and validation, no I/O, no rclpy).
 Frames and units: head orientations are unit quaternions (x, y, z, w) of the head relative to the
 avatar's base (x forward, y left, z up; identity looks straight ahead), or roll/pitch/yaw in
 radians (pitch > 0 looks down, yaw > 0 looks left). ``"frame": "xr"`` marks a quaternion in the
-OpenXR/WebXR convention (x right, y up, −z forward), converted here. Twists are m/s and rad/s.
+OpenXR/WebXR convention (x right, y up, −z forward) and ``"frame": "unity"`` one in Unity's
+left-handed convention (x right, y up, z forward); both are converted here. Twists are m/s and
+rad/s.
 """
 from __future__ import annotations
 
@@ -136,6 +138,13 @@ def xr_to_base(q: tuple[float, float, float, float]) -> tuple[float, float, floa
     return (-z, -x, y, w)
 
 
+def unity_to_base(q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """Orientation in Unity's left-handed convention (x right, y up, z forward) → base convention.
+    The axis change x_b = z, y_b = −x, z_b = y flips handedness, which negates the vector part."""
+    x, y, z, w = q
+    return (-z, x, -y, w)
+
+
 def rpy_to_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
     """Roll about x, pitch about y (positive looks down), yaw about z (positive looks left),
     applied yaw·pitch·roll; radians → (x, y, z, w)."""
@@ -170,8 +179,10 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
         t = _number(obj, "t") if "t" in obj else None
         if "q" in obj:
             q = normalise_quaternion(obj["q"])
-            frame = _string(obj, "frame", "base", choices=("base", "xr"))
-            return Head(xr_to_base(q) if frame == "xr" else q, t)
+            frame = _string(obj, "frame", "base", choices=("base", "xr", "unity"))
+            if frame != "base":
+                q = normalise_quaternion(list(xr_to_base(q) if frame == "xr" else unity_to_base(q)))
+            return Head(q, t)
         if "rpy" in obj:
             rpy = obj["rpy"]
             if not isinstance(rpy, (list, tuple)) or len(rpy) != 3:

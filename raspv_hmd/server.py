@@ -403,12 +403,21 @@ class HeadsetServer:
     # -- public, thread-safe --------------------------------------------------------------------
     def urls(self) -> list[str]:
         """Where to open the client page (with the token when one is needed)."""
+        return [page for page, _ in self.endpoints()]
+
+    def endpoints(self) -> list[tuple[str, str | None]]:
+        """(page URL, native TCP endpoint or None) for each address the server is reachable at."""
         scheme = "https" if self._ssl else "http"
         hosts = [self.config.host]
         if self.config.host in ("0.0.0.0", "", "::"):
             hosts = _interface_addresses() or ["127.0.0.1"]
         query = f"?token={self.token}" if self.token else ""
-        return [f"{scheme}://{'[' + h + ']' if ':' in h else h}:{self.port}/{query}" for h in hosts]
+        out = []
+        for h in hosts:
+            name = f"[{h}]" if ":" in h else h
+            tcp = f"tcp://{name}:{self.tcp_port}" if self.tcp_port else None
+            out.append((f"{scheme}://{name}:{self.port}/{query}", tcp))
+        return out
 
     def submit_frame(self, image: np.ndarray, stamp: float) -> int:
         """Offer a phosphene image ((H, W) mono8 or (H, W, 3) rgb8; ``stamp`` = its time, s) to

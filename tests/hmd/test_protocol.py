@@ -43,7 +43,7 @@ def test_valid_messages_parse_to_their_types():
     ('{"type":"head"}', "bad_field"),
     ('{"type":"head","q":[0,0,0]}', "bad_field"),
     ('{"type":"head","q":[0,0,0,0]}', "bad_field"),
-    ('{"type":"head","q":[0,0,0,1],"frame":"unity"}', "bad_field"),
+    ('{"type":"head","q":[0,0,0,1],"frame":"unreal"}', "bad_field"),
     ('{"type":"head","rpy":[0,0,100]}', "bad_field"),
     ('{"type":"head","rpy":[0,0]}', "bad_field"),
     ('{"type":"key","key":"' + "x" * 40 + '"}', "bad_field"),
@@ -97,6 +97,17 @@ def test_xr_orientations_are_converted_to_base():
     look_down = (math.sin(-a / 2), 0, 0, math.cos(-a / 2))             # about XR −x = look down
     q = P.xr_to_base(look_down)
     assert P.quaternion_to_rpy(q) == pytest.approx((0, a, 0))
+
+
+def test_unity_orientations_are_converted_to_base():
+    a = math.radians(30)
+    yaw_right = [0, math.sin(a / 2), 0, math.cos(a / 2)]            # Unity Euler(0, 30, 0): looks right
+    q = P.parse_client_message(json.dumps({"type": "head", "q": yaw_right, "frame": "unity"})).quaternion
+    assert P.quaternion_to_rpy(q) == pytest.approx((0, 0, -a))
+    pitch_down = [math.sin(a / 2), 0, 0, math.cos(a / 2)]           # Unity Euler(30, 0, 0): looks down
+    assert P.quaternion_to_rpy(P.unity_to_base(pitch_down)) == pytest.approx((0, a, 0))
+    roll = [0, 0, math.sin(a / 2), math.cos(a / 2)]                 # Unity Euler(0, 0, 30): tilts left
+    assert P.quaternion_to_rpy(P.unity_to_base(roll)) == pytest.approx((-a, 0, 0))
 
 
 def test_frame_header_round_trip_and_checks():
