@@ -4,8 +4,8 @@ Two points belong to the same cluster when a chain of links joins them; a link i
 - 3-D proximity: points in voxels whose centroids are within ``tolerance`` (k-d tree on the
   voxel-downsampled cloud, the classic Euclidean cluster extraction), or
 - image adjacency: neighbouring samples of the organised cloud closer than the larger of
-  ``tolerance`` and ``spacing_factor`` × their sample spacing (so sparse far surfaces, whose
-  samples are farther apart than ``tolerance``, still hold together).
+  ``tolerance`` and ``spacing_factor`` × their spacing on the surface (so far or grazing
+  surfaces, whose samples are farther apart than ``tolerance``, still hold together).
 Camera frame C, metres.
 """
 from __future__ import annotations

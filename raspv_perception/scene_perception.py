@@ -157,7 +157,7 @@ class ScenePerception:
 
         # 3. Obstacles and free floor ------------------------------------------------------------
         if reference is not None:
-            self._obstacles(structure, S, labels, reference, intrinsics)
+            self._obstacles(structure, S, labels, reference, intrinsics, in_plane=~free)
         clock.lap("obstacles_free_floor")
         full = cloud.upsample(labels)
         with np.errstate(invalid="ignore"):
@@ -210,7 +210,7 @@ class ScenePerception:
         return Plane(kind, np.asarray(piece.plane, dtype=np.float64), centroid, area, height, len(idx), hull)
 
     def _obstacles(self, structure: SceneStructure, S: CloudSamples, labels: np.ndarray, reference: np.ndarray,
-                   intrinsics: CameraIntrinsics) -> None:
+                   intrinsics: CameraIntrinsics, in_plane: np.ndarray) -> None:
         cfg = self.config
         flat = labels.reshape(-1)
         n = reference[:3].astype(np.float32)
@@ -218,19 +218,23 @@ class ScenePerception:
             height = S.points @ n + np.float32(reference[3])
             # Everything above the reference plane's inlier band joins the clustering, so an
             # obstacle keeps its base; clusters whose top stays below min_obstacle_height are
-            # sensor noise along the plane and are dropped. Samples without a normal (depth
-            # edges, where "flying pixels" bridge objects) are labelled afterwards but do not link.
+            # sensor noise along the plane and are dropped. Samples without a normal that no
+            # plane took (depth edges, where "flying pixels" bridge objects) are labelled
+            # afterwards but do not link.
             above = (S.valid & (flat != L.FLOOR) & (flat != L.WALL)
                      & (height > S.tolerance) & (height < cfg.max_obstacle_height))
-            cand = above & S.has_normal
+            cand = above & (S.has_normal | in_plane)
         idx = np.flatnonzero(cand)
         T = floor_frame(reference)
         R, t = T[:3, :3], T[:3, 3]
         obstacle_xz = np.zeros((0, 2))
         if len(idx):
             pts_c = S.points[idx]
-            spacing = pts_c[:, 2] * np.float32(cfg.stride / intrinsics.fx)
-            links = organised_links(idx, pts_c, S.shape, cfg.cluster_tolerance, spacing)
+            # Neighbouring samples lie (stride·z/f) / cos(incidence) apart on a surface: the
+            # sample's surface area over its lateral spacing (long on grazing table tops).
+            lateral = pts_c[:, 2] * np.float32(cfg.stride / intrinsics.fx)
+            spacing = S.area[idx] / lateral
+            links = organised_links(idx, pts_c, S.shape, cfg.cluster_tolerance, spacing, spacing_factor=1.5)
             ids, count = euclidean_clusters(pts_c, cfg.voxel_size, cfg.cluster_tolerance, cfg.min_cluster_voxels, links)
             if count:
                 top = np.full(count, -np.inf)
