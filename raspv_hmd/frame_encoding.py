@@ -4,7 +4,9 @@ PNG is written with no row filter and zlib level 2: on an 800×800 phosphene ima
 dots on a hexagonal grid) this takes ≈ 2.8 ms and gives ≈ 90 KB (7× smaller than raw), where
 OpenCV's default filters take 7–10 ms for a bigger file (``raspv bench hmd --codecs``).
 A frame whose PNG is not at least :data:`PNG_WORTH` smaller than raw goes out raw (the
-format byte of each frame tells the client).
+format byte of each frame tells the client). An rgb8 frame whose red and blue channels are
+empty (the spv node's green output for headsets) travels as its green channel with the
+``FLAG_GREEN`` flag: a third of the bytes.
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import threading
 import cv2
 import numpy as np
 
-from raspv_hmd.protocol import FORMAT_PNG, FORMAT_RAW, FrameHeader, pack_frame_header
+from raspv_hmd.protocol import FLAG_GREEN, FORMAT_PNG, FORMAT_RAW, FrameHeader, pack_frame_header
 
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 2, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_NONE]
 PNG_WORTH = 0.75                # PNG is used only when it is below this fraction of the raw size
@@ -40,6 +42,10 @@ class OutgoingFrame:
         self.image = check_image(image)
         self.stamp = float(stamp)
         self.height, self.width = self.image.shape[:2]
+        self.flags = 0
+        if self.image.ndim == 3 and not self.image[..., 0].any() and not self.image[..., 2].any():
+            self.image = np.ascontiguousarray(self.image[..., 1])
+            self.flags = FLAG_GREEN
         self.channels = 1 if self.image.ndim == 2 else 3
         self._payloads: dict[int, tuple[int, bytes]] = {}
         self._lock = threading.Lock()
@@ -65,5 +71,5 @@ class OutgoingFrame:
         """(format used, the whole frame message: header + payload) stamped ``sent`` (s)."""
         fmt, payload = self.payload(wanted)
         header = pack_frame_header(FrameHeader(fmt, self.channels, self.width, self.height, self.seq,
-                                               len(payload), self.stamp, sent))
+                                               len(payload), self.stamp, sent, self.flags))
         return fmt, header + payload

@@ -23,13 +23,14 @@ from typing import Any
 PROTOCOL_VERSION = 1
 
 # Frame message: little-endian header, then the payload (raw pixels row-major, or a PNG file).
-#   magic "RSPV", version u8, format u8, channels u8, reserved u8, width u32, height u32,
+#   magic "RSPV", version u8, format u8, channels u8, flags u8, width u32, height u32,
 #   seq u32, payload length u32, stamp f64 (image time, s), sent f64 (server wall clock, s)
 FRAME_MAGIC = b"RSPV"
 FRAME_HEADER = struct.Struct("<4sBBBBIIIIdd")
 FORMAT_RAW = 0
 FORMAT_PNG = 1
 FORMAT_NAMES = {FORMAT_RAW: "raw", FORMAT_PNG: "png"}
+FLAG_GREEN = 1                     # a 1-channel frame that is the green channel of an rgb8 image
 
 # TCP framing: payload length u32, kind u8, then the payload.
 TCP_HEADER = struct.Struct("<IB")
@@ -244,10 +245,11 @@ class FrameHeader:
     payload_length: int
     stamp: float         # time of the image (its ROS header), s
     sent: float          # server wall clock when sent, s
+    flags: int = 0       # FLAG_GREEN: show the single channel as green
 
 
 def pack_frame_header(h: FrameHeader) -> bytes:
-    return FRAME_HEADER.pack(FRAME_MAGIC, PROTOCOL_VERSION, h.format, h.channels, 0, h.width, h.height,
+    return FRAME_HEADER.pack(FRAME_MAGIC, PROTOCOL_VERSION, h.format, h.channels, h.flags, h.width, h.height,
                              h.seq, h.payload_length, h.stamp, h.sent)
 
 
@@ -255,7 +257,7 @@ def unpack_frame(data: bytes | memoryview) -> tuple[FrameHeader, memoryview]:
     """A frame message → (header, payload view); raises ProtocolError when inconsistent."""
     if len(data) < FRAME_HEADER.size:
         raise ProtocolError("bad_frame", f"frame of {len(data)} bytes is shorter than its header")
-    magic, version, fmt, channels, _, w, h, seq, n, stamp, sent = FRAME_HEADER.unpack_from(data)
+    magic, version, fmt, channels, flags, w, h, seq, n, stamp, sent = FRAME_HEADER.unpack_from(data)
     if magic != FRAME_MAGIC or version != PROTOCOL_VERSION:
         raise ProtocolError("bad_frame", f"not a protocol-{PROTOCOL_VERSION} frame (magic {magic!r}, version {version})")
     if fmt not in FORMAT_NAMES or channels not in (1, 3) or len(data) != FRAME_HEADER.size + n:
@@ -263,4 +265,4 @@ def unpack_frame(data: bytes | memoryview) -> tuple[FrameHeader, memoryview]:
                                          f"{len(data) - FRAME_HEADER.size} payload bytes for {n} announced")
     if fmt == FORMAT_RAW and n != w * h * channels:
         raise ProtocolError("bad_frame", f"raw {w}x{h}x{channels} frame with {n} bytes")
-    return FrameHeader(fmt, channels, w, h, seq, n, stamp, sent), memoryview(data)[FRAME_HEADER.size:]
+    return FrameHeader(fmt, channels, w, h, seq, n, stamp, sent, flags), memoryview(data)[FRAME_HEADER.size:]

@@ -119,17 +119,25 @@ class ClientReport:
 
 
 def decode_payload(header: P.FrameHeader, payload: memoryview) -> np.ndarray:
-    """Frame payload → (H, W) or (H, W, 3) uint8 (RGB order)."""
+    """Frame payload → (H, W) or (H, W, 3) uint8 (RGB order); a FLAG_GREEN frame → rgb8 with only
+    the green channel, as it was published."""
     import cv2
 
     if header.format == P.FORMAT_RAW:
         arr = np.frombuffer(payload, np.uint8)
-        return arr.reshape(header.height, header.width) if header.channels == 1 else \
+        img = arr.reshape(header.height, header.width) if header.channels == 1 else \
             arr.reshape(header.height, header.width, 3)
-    img = cv2.imdecode(np.frombuffer(payload, np.uint8), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise P.ProtocolError("bad_frame", "PNG payload could not be decoded")
-    return img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+    else:
+        img = cv2.imdecode(np.frombuffer(payload, np.uint8), cv2.IMREAD_UNCHANGED)
+        if img is None:
+            raise P.ProtocolError("bad_frame", "PNG payload could not be decoded")
+        if img.ndim == 3:
+            img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+    if header.flags & P.FLAG_GREEN and img.ndim == 2:
+        rgb = np.zeros(img.shape + (3,), np.uint8)
+        rgb[..., 1] = img
+        return rgb
+    return img
 
 
 class _Conn:

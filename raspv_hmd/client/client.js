@@ -116,20 +116,21 @@
     const dv = new DataView(buf);
     const magic = String.fromCharCode(...new Uint8Array(buf, 0, 4));
     if (magic !== "RSPV") return;
-    const fmt = dv.getUint8(5), channels = dv.getUint8(6);
+    const fmt = dv.getUint8(5), channels = dv.getUint8(6), greenFrame = (dv.getUint8(7) & 1) === 1;
     const w = dv.getUint32(8, true), h = dv.getUint32(12, true), seq = dv.getUint32(16, true);
     const n = dv.getUint32(20, true), stamp = dv.getFloat64(24, true), sent = dv.getFloat64(32, true);
     const meta = { seq, w, h, stamp, sent, fmt };
+    const green = S.green || greenFrame;
     if (fmt === FORMAT_RAW) {
       if (n !== w * h * channels) return;
       setFrameSize(w, h);
       const img = frameCtx.createImageData(w, h);
       const out = new Uint32Array(img.data.buffer), src = new Uint8Array(buf, HEADER_BYTES, n);
       if (channels === 1) {
-        const lut = S.green ? GREEN : GREY;
+        const lut = green ? GREEN : GREY;
         for (let i = 0; i < out.length; i++) out[i] = lut[src[i]];
       } else {
-        const g = S.green;
+        const g = green;
         for (let i = 0, j = 0; i < out.length; i++, j += 3) {
           out[i] = g ? 0xff000000 | (src[j + 1] << 8) : 0xff000000 | (src[j + 2] << 16) | (src[j + 1] << 8) | src[j];
         }
@@ -143,7 +144,7 @@
         frameCtx.globalCompositeOperation = "copy";
         frameCtx.drawImage(bmp, 0, 0);
         bmp.close();
-        if (S.green) {                            // keep only the green channel
+        if (green) {                              // keep only the green channel
           frameCtx.globalCompositeOperation = "multiply";
           frameCtx.fillStyle = "#00ff00";
           frameCtx.fillRect(0, 0, w, h);

@@ -78,10 +78,12 @@ def streaming_server(start_server):
     stop = threading.Event()
     servers = []
 
-    def start(**config):
+    def start(green_rgb=False, **config):
         server = start_server(**config)
         pattern = PhospheneTestPattern(640, 480, count=600)
         frames = [pattern.frame(i / 30) for i in range(30)]
+        if green_rgb:                     # the spv node's headset output: rgb8, green channel only
+            frames = [np.stack([np.zeros_like(f), f, np.zeros_like(f)], axis=2) for f in frames]
 
         def feed():
             i = 0
@@ -174,6 +176,17 @@ def test_stereo_side_by_side_and_green_only(page, streaming_server, fmt):
     left, right = rgb[:, : w // 2], rgb[:, w // 2:]
     assert (left.max(axis=2) > 60).mean() > 0.005
     assert np.abs(left - right).mean() < 1.0                              # the same image for each eye
+
+
+@pytest.mark.parametrize("fmt", ["raw", "png"])
+def test_green_rgb_frames_arrive_as_one_channel_and_show_green(page, streaming_server, fmt):
+    server = streaming_server(green_rgb=True)
+    page.goto(f"http://127.0.0.1:{server.port}/?format={fmt}&overlay=0")
+    wait_shown(page, 5)
+    rgb = canvas_pixels(page).astype(int)
+    lit = rgb.max(axis=2) > 60
+    assert lit.mean() > 0.005 and rgb[..., 0][lit].max() < 20 and rgb[..., 2][lit].max() < 20
+    assert server.stats().clients[0].format == fmt
 
 
 def test_watcher_page_gets_frames_but_does_not_control(browser_context, streaming_server, recorder):

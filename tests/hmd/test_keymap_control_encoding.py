@@ -108,12 +108,13 @@ def test_noise_goes_raw_even_when_png_is_asked_for():
 
 
 def test_rgb_png_keeps_channel_order():
-    green = np.zeros((64, 64, 3), np.uint8)
-    green[20:40, 20:40, 1] = 200
-    fmt, png = OutgoingFrame(1, green, 0.0).payload(P.FORMAT_PNG)
+    rgb = np.zeros((64, 64, 3), np.uint8)
+    rgb[20:40, 20:40, 1] = 200
+    rgb[5:10, 5:10, 0] = 90
+    fmt, png = OutgoingFrame(1, rgb, 0.0).payload(P.FORMAT_PNG)
     assert fmt == P.FORMAT_PNG
     decoded = cv2.cvtColor(cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
-    assert np.array_equal(decoded, green)
+    assert np.array_equal(decoded, rgb)
 
 
 @pytest.mark.parametrize("bad", [np.zeros((4, 4), np.float32), np.zeros((4, 4, 4), np.uint8),
@@ -121,3 +122,19 @@ def test_rgb_png_keeps_channel_order():
 def test_bad_frames_are_refused_with_a_message(bad):
     with pytest.raises(ValueError, match="phosphene frame"):
         OutgoingFrame(1, bad, 0.0)
+
+
+def test_green_only_rgb_travels_as_one_channel():
+    from raspv_hmd.reference_client import decode_payload
+
+    green = np.zeros((50, 60, 3), np.uint8)
+    green[10:30, 5:25, 1] = 180
+    for wanted in (P.FORMAT_RAW, P.FORMAT_PNG):
+        fmt, message = OutgoingFrame(1, green, 0.0).message(wanted, 0.0)
+        header, payload = P.unpack_frame(message)
+        assert header.channels == 1 and header.flags == P.FLAG_GREEN and header.format == wanted
+        assert np.array_equal(decode_payload(header, payload), green)
+    white = green.copy()
+    white[0, 0] = 255
+    header, _ = P.unpack_frame(OutgoingFrame(1, white, 0.0).message(P.FORMAT_RAW, 0.0)[1])
+    assert header.channels == 3 and header.flags == 0
