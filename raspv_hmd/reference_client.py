@@ -14,6 +14,7 @@ import math
 import socket
 import time
 from dataclasses import dataclass, field
+from typing import Protocol
 from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
@@ -140,13 +141,15 @@ def decode_payload(header: P.FrameHeader, payload: memoryview) -> np.ndarray:
     return img
 
 
-class _Conn:
+class _Conn(Protocol):
+    """A connection to the server: JSON text out, JSON text or frame bytes in (None: closed)."""
+
     async def send(self, text: str) -> None: ...
     async def recv(self) -> str | bytes | None: ...
     async def close(self) -> None: ...
 
 
-class _WsConn(_Conn):
+class _WsConn:
     def __init__(self, ws) -> None:
         self.ws = ws
 
@@ -164,7 +167,7 @@ class _WsConn(_Conn):
         await self.ws.close()
 
 
-class _TcpConn(_Conn):
+class _TcpConn:
     def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self.reader, self.writer = reader, writer
 

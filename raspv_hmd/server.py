@@ -26,9 +26,9 @@ import ssl
 import statistics
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
-from typing import Any, Callable
+from typing import Any, Callable, Protocol
 from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
@@ -152,18 +152,19 @@ class ServerStats:
     frames_submitted: int
 
 
-class _Link:
-    """One client's transport: JSON text and frames out, messages in."""
+class _Link(Protocol):
+    """One client's transport: JSON text and frames out, messages in (``recv`` → None when the
+    client closed)."""
 
-    transport = ""
+    transport: str
 
     async def send_text(self, text: str) -> None: ...
     async def send_frame(self, data: bytes) -> None: ...
-    async def recv(self) -> str | bytes | None: ...      # None: the client closed
+    async def recv(self) -> str | bytes | None: ...
     async def close(self) -> None: ...
 
 
-class _WebSocketLink(_Link):
+class _WebSocketLink:
     transport = "websocket"
 
     def __init__(self, ws: ServerConnection) -> None:
@@ -190,7 +191,7 @@ class _WebSocketLink(_Link):
         await self.ws.close()
 
 
-class _TcpLink(_Link):
+class _TcpLink:
     transport = "tcp"
 
     def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
