@@ -19,7 +19,7 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
 from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image, matrix_to_pose,
-                                      rgb_from_image, stamp_to_seconds)
+                                      rgb_from_image)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import SENSOR_QOS
 from raspv_perception.odometry_params import PARAMS

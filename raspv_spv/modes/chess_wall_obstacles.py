@@ -2,8 +2,6 @@
 floor, walls at half level, horizontal planes and obstacles at full level."""
 from __future__ import annotations
 
-import numpy as np
-
 from raspv_perception import scene_labels as L
 from raspv_spv.modes.chess_floor import ChessFloorMode
 from raspv_spv.modes.wall_obstacles import wall_obstacle_levels

@@ -2,8 +2,6 @@
 sees floor — free or next to an obstacle — off, so only what stands on the floor shows."""
 from __future__ import annotations
 
-import numpy as np
-
 from raspv_perception import scene_labels as L
 from raspv_spv.modes.depth import DepthMode
 

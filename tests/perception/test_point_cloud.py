@@ -1,6 +1,4 @@
 """Organised cloud, normals and voxel grid on analytic depth."""
-import math
-
 import numpy as np
 import pytest
 
