@@ -100,7 +100,7 @@ class ScenePerception:
         if chosen is not None:
             up, source, reference = chosen.plane[:3], GravitySource.FLOOR, chosen.plane
         elif pose is not None:
-            up, source = expect.up if not self.tracker.tracking else pose[:3, :3].T @ np.array([0.0, 0.0, 1.0]), GravitySource.POSE
+            up, source = pose[:3, :3].T @ np.array([0.0, 0.0, 1.0]), GravitySource.POSE    # world z in C
         elif layers and angle_deg(layers[0][0][:3], CAMERA_UP) <= cfg.support_max_angle_deg:
             up, source = layers[0][0][:3], GravitySource.SUPPORT
         else:
