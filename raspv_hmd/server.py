@@ -349,7 +349,13 @@ class HeadsetServer:
         self._loop = loop
         try:
             loop.run_until_complete(self._main())
+        except Exception as exc:  # noqa: BLE001 - reported to start() instead of hanging it
+            if not self._ready.is_set():
+                self._start_error = ServerError(f"the headset server failed to start: {exc!r}")
+            else:
+                self._event(f"the headset server stopped on an error: {exc!r}")
         finally:
+            self._ready.set()
             loop.close()
 
     async def _main(self) -> None:
@@ -610,9 +616,9 @@ class HeadsetServer:
         try:
             first = await asyncio.wait_for(link.recv(), self.config.hello_timeout_s)
         except asyncio.TimeoutError:
-            return self._reject("hello_timeout", peer, f"no hello within {self.config.hello_timeout_s:g} s")
+            return await self._reject("hello_timeout", peer, f"no hello within {self.config.hello_timeout_s:g} s")
         except (_Drop, P.ProtocolError) as exc:
-            return self._reject(getattr(exc, "code", "bad_hello"), peer, str(exc))
+            return await self._reject(getattr(exc, "code", "bad_hello"), peer, str(exc))
         except (ConnectionError, ConnectionClosed):
             return None
         if first is None:
@@ -620,24 +626,23 @@ class HeadsetServer:
         try:
             hello = P.parse_client_message(first)
         except P.ProtocolError as exc:
-            await self._send_bye(link, f"bad hello: {exc}")
-            return self._reject(exc.code, peer, str(exc))
+            return await self._reject(exc.code, peer, f"bad hello: {exc}", link)
         if not isinstance(hello, P.Hello):
-            await self._send_bye(link, "the first message must be a hello")
-            return self._reject("no_hello", peer, "first message was not a hello")
+            return await self._reject("no_hello", peer, "the first message must be a hello", link)
         if self.token:
             given = hello.token or url_token
             if not hmac.compare_digest(given.encode(), self.token.encode()):
-                await self._send_bye(link, "wrong or missing token")
-                return self._reject("token", peer, "wrong or missing token")
+                return await self._reject("token", peer, "wrong or missing token", link)
         if len(self._sessions) >= self.config.max_clients:
-            await self._send_bye(link, f"the server is full ({self.config.max_clients} clients)")
-            return self._reject("full", peer, "too many clients")
+            return await self._reject("full", peer, f"the server is full ({self.config.max_clients} clients)", link)
         return hello
 
-    def _reject(self, code: str, peer: str, why: str) -> None:
+    async def _reject(self, code: str, peer: str, why: str, link: _Link | None = None) -> None:
+        """Count and log a refused connection, telling the client why when it can still listen."""
         self._rejected[code] += 1
         self._event(f"refused a client from {peer}: {why}")
+        if link is not None:
+            await self._send_bye(link, why)
         return None
 
     async def _send_bye(self, link: _Link, reason: str) -> None:
