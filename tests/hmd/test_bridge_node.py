@@ -185,3 +185,13 @@ def test_phosphenes_from_the_camera_reach_a_headset_client(graph):
             break
     assert report.frames == 5 and report.size == (320, 192)
     assert report.last_frame.max() > 0          # phosphenes are lit
+
+    async def press():                          # the viewer keys name the real spv node's parameters
+        ws = await controller(url)
+        for key, text in [("+", "spv num_phosphenes 240 → 264"), ("J", "spv max_depth 3.0 → 3.5"),
+                          ("n", "spv noise_px 0.0 → 0.0"), ("2", "spv mode depth")]:
+            await ws.send(P.client_message("key", key=key))
+            status = await next_status(ws, timeout=60)
+            assert status["ok"] and text in status["text"], (key, status)
+        await ws.close()
+    asyncio.run(press())
