@@ -34,7 +34,7 @@
     stereo: params.get("stereo") === "1", green: params.get("green") === "1",
     framesReceived: 0, framesShown: 0, lastShownSeq: 0, size: null,
     rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
-    head: { roll: 0, pitch: 0, yaw: 0 }, twist: { linear: 0, angular: 0 },
+    head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
     lastStatus: "", xr: false, orientation: false,
   };
   window.raspvClient = S;
@@ -258,7 +258,7 @@
     const q = orientationQuaternion(e.alpha, e.beta, e.gamma, angle);
     if (headingOffset === null) headingOffset = yawOf(q);
     const rel = qmul(axisAngle(0, 0, 1, -headingOffset), q);
-    S.head = { quaternion: rel };
+    S.headQuaternion = rel;
     sendHead({ type: "head", q: rel });
   }
 
@@ -268,6 +268,8 @@
     }
     S.orientation = !S.orientation;
     headingOffset = null;
+    S.headQuaternion = null;
+    setHead(0, 0, 0);                          // either way, start from straight ahead
     $("orient").setAttribute("aria-pressed", String(S.orientation));
   }
 
