@@ -2,7 +2,7 @@
 // mode keys back to the bridge (protocol reference: docs/hmd.md). Plain JS, no dependencies.
 //
 // URL options: ?token=… (required when the bridge is not on loopback), role=watch,
-// stereo=1, green=1, format=raw|png, overlay=0.
+// stereo=1, green=1, format=raw|png, overlay=0, orientation=1 (phone motion sensors turn the head).
 // Frames: head orientation relative to the avatar base (x forward, y left, z up); roll/pitch/yaw
 // in radians, pitch > 0 looks down, yaw > 0 looks left.
 "use strict";
@@ -15,7 +15,7 @@
   const DRAG_RAD_PER_PX = 0.25 * Math.PI / 180;
   const MAX_YAW = Math.PI / 2, MAX_PITCH = Math.PI / 3;
   const STICK_DEADZONE = 0.15, STICK_HEAD_RATE = Math.PI / 2;   // rad/s at full deflection
-  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,0123456789".split(""));
+  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,123456789".split(""));
   const MOVE_KEYS = {
     w: [1, 0], arrowup: [1, 0], s: [-1, 0], arrowdown: [-1, 0],
     a: [0, 1], arrowleft: [0, 1], d: [0, -1], arrowright: [0, -1],
