@@ -24,6 +24,7 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
@@ -71,6 +72,7 @@ class SpvNode(RaspvNode):
         # latest inputs and the levels computed from them
         self.color = self.depth = self.pose = None
         self.scene = self.scene_labels = None          # scene perception (scene modes)
+        self.extras: dict[str, object] = {}             # further inputs by name (e.g. nav_path)
         self.intrinsics = None
         self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0}
         self._waiting_since: float | None = None
@@ -130,7 +132,8 @@ class SpvNode(RaspvNode):
         wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
                   "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose),
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
-                  "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels)}
+                  "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels),
+                  "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
                 self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS,
@@ -173,6 +176,14 @@ class SpvNode(RaspvNode):
         except ValueError as exc:
             self.warn_throttled("pose", f"ignoring camera pose: {exc}")
 
+    def on_nav_path(self, msg: PathMsg) -> None:
+        """The navigation path (world frame) as an (N, 3) array for the path overlay."""
+        if msg.header.frame_id not in ("world", ""):
+            self.warn_throttled("path", f"ignoring {topics.NAV_PATH} in frame {msg.header.frame_id!r}; expected 'world'")
+            return
+        self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
+                                            for p in msg.poses], dtype=float).reshape(-1, 3)
+
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)
         self.stamps["scene"] = stamp_to_seconds(msg.header.stamp)
@@ -210,7 +221,8 @@ class SpvNode(RaspvNode):
                                                "phosphenes stay off until it comes")
             return
         inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
-                             camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels)
+                             camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels,
+                             extras=dict(self.extras))
         try:
             levels = sim.levels(inputs)
         except InputError as exc:

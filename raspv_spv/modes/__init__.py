@@ -21,6 +21,7 @@ MODES: dict[str, str] = {
 }
 
 OVERLAYS: dict[str, str] = {
+    "path": "raspv_spv.modes.path_overlay:PathOverlay",
 }
 
 

@@ -75,3 +75,23 @@ def test_unknown_goal_name_is_a_one_line_error(graph):
     g.wait_for_output(r"goal_name 'fridge' is not a goal of the world; goals: bin")
     g.proc.wait(timeout=30)
     assert g.stop() == 1
+
+
+def test_path_overlay_highlights_the_path_in_the_phosphenes(graph, probe, tmp_path):
+    from raspv_msgs.msg import PhospheneFrame
+
+    room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
+    save_map(room_map(room), tmp_path / "room.yaml")
+    graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}, {"kind": "spv"}]},
+           "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
+           "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": [1.6, 2.6]}},
+           "spv": {"ros__parameters": {"device": "optimist", "mode": "depth", "overlays": ["path"],
+                                       "temporal": False, "width": 200}}})
+    # the walker at (1.6, 0) looks along +y; the goal is straight ahead, so the path is in view
+    frame = probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=90,
+                                   predicate=lambda f: max(f.levels, default=0) == 7)
+    levels = np.frombuffer(bytes(frame.levels), np.uint8)
+    assert list(frame.overlays) == ["path"]
+    lit = levels == 7
+    assert 5 < lit.sum() < 0.3 * len(levels)        # a band of phosphenes, not the whole field
+    assert levels[~lit].max() <= 4                   # the rest dimmed ×0.5 (depth levels ≤ 7 → ≤ 4)
