@@ -138,12 +138,15 @@ def test_replay_drives_the_spv_node_to_the_same_levels_as_the_live_source(graph,
     """Live: synthetic → spv, recorded. Replay: bag → spv. The same camera frame gives the
     same phosphene levels (the mode is deterministic; brightness also depends on timing)."""
     spv = {"width": 200, "mode": "grey"}
-    live = graph({**SOURCE, "launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "spv"}]},
+    # 5 Hz: the spv node computes levels for the newest frame only, so a loaded machine could
+    # make the live and the replayed run skip different frames at higher rates
+    live = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "spv"}]},
+                  "cam": {"ros__parameters": {"rate": 5.0, "width": 160, "height": 120}},
                   "spv": {"ros__parameters": spv}})
     from raspv_msgs.msg import PhospheneFrame
 
     probe.wait_for_message(T.SPV_FRAME, PhospheneFrame, timeout=90)
-    rec = raspv("bag", "record", "/camera/*", T.SPV_FRAME, T.SPV_MAP, "-o", str(tmp_path / "demo"), "--duration", "5")
+    rec = raspv("bag", "record", "/camera/*", T.SPV_FRAME, T.SPV_MAP, "-o", str(tmp_path / "demo"), "--duration", "6")
     assert rec.returncode == 0, rec.stderr
     live.stop()
     with BagReader(tmp_path / "demo") as r:
@@ -153,13 +156,17 @@ def test_replay_drives_the_spv_node_to_the_same_levels_as_the_live_source(graph,
             f = r.decode(m)
             live_levels[(f.source_stamp.sec, f.source_stamp.nanosec)] = bytes(f.levels)
     col = probe.subscribe(T.SPV_FRAME, PhospheneFrame, QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE))
-    graph({"launch": {"nodes": [{"kind": "replay"}, {"kind": "spv"}]},
+    replay = graph({"launch": {"nodes": [{"kind": "replay"}, {"kind": "spv"}]},
            "replay": {"ros__parameters": {"bag": str(tmp_path / "demo"), "topics": CAMERA,
                                           "wait_for_subscribers": 2}},
            "spv": {"ros__parameters": spv}})
-    col.wait(150, timeout=120)  # 3 s of display ticks
+    def replayed():
+        return {(f.source_stamp.sec, f.source_stamp.nanosec): bytes(f.levels) for f in list(col.messages)}
+
+    replay.wait_for_output(r"finished: \d+ messages", timeout=120)
+    time.sleep(0.5)  # the last frame's display ticks
     probe.unsubscribe(col)
-    replay_levels = {(f.source_stamp.sec, f.source_stamp.nanosec): bytes(f.levels) for f in col.messages}
+    replay_levels = replayed()
     common = set(live_levels) & set(replay_levels) - {(0, 0)}
-    assert len(common) >= 10, (len(live_levels), len(replay_levels))
+    assert len(common) >= 8, (len(live_levels), len(replay_levels), len(common))
     assert all(live_levels[k] == replay_levels[k] for k in common)
