@@ -15,6 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    banner = ("raspv demo: graph running. Watch the phosphenes with `raspv hz /spv/image`; "
-              "stop with Ctrl-C.")
+    banner = ("raspv demo: the apartment in phosphenes. Open the headset client URL the bridge prints "
+              "(arrow keys walk, drag turns the head, 1-9 switch modes), or drive with `raspv teleop` "
+              "in another terminal. Stop with Ctrl-C.")
     return launch(str(DEMO_GRAPH), args.overrides, banner=banner)

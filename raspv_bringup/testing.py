@@ -234,7 +234,7 @@ class Probe:
         result: list[Any] = []
         try:
             deadline = time.monotonic() + timeout
-            while not (client._set.service_is_ready() and client._get.service_is_ready()):
+            while not client.is_ready():
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"parameter services of {target} not available")
                 time.sleep(0.05)

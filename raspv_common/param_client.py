@@ -94,6 +94,10 @@ class ParamClient:
         for c in (self._get, self._set, self._list, self._describe):
             self.node.destroy_client(c)
 
+    def is_ready(self) -> bool:
+        """True once the target's get/set parameter services are discovered."""
+        return self._get.service_is_ready() and self._set.service_is_ready()
+
     # -- non-blocking ---------------------------------------------------------------------
     def set_async(self, values: dict[str, Any], done: Callable[[list[tuple[str, bool, str]]], None] | None = None,
                   types: dict[str, int] | None = None) -> None:
@@ -111,10 +115,29 @@ class ParamClient:
                 lambda f: done([(n, r.successful, r.reason) for n, r in zip(names, f.result().results)]))
 
     def get_async(self, names: list[str], done: Callable[[dict[str, Any]], None]) -> None:
+        """``done`` gets {name: value}, None for names the node does not have (or for every
+        name when the node is not reachable)."""
         if not self._get.service_is_ready():
+            done({n: None for n in names})
             return
-        future = self._get.call_async(GetParameters.Request(names=names))
-        future.add_done_callback(lambda f: done({n: value_from_msg(v) for n, v in zip(names, f.result().values)}))
+
+        def answered(future) -> None:
+            values = list(future.result().values) if future.result() is not None else []
+            if len(values) == len(names):
+                done({n: (None if v.type == ParameterType.PARAMETER_NOT_SET else value_from_msg(v))
+                      for n, v in zip(names, values)})
+            elif len(names) == 1:
+                done({names[0]: None})
+            else:  # one unknown name empties the whole answer: ask name by name
+                merged: dict[str, Any] = {}
+
+                def one(answer: dict[str, Any]) -> None:
+                    merged.update(answer)
+                    if len(merged) == len(names):
+                        done(merged)
+                for n in names:
+                    self.get_async([n], one)
+        self._get.call_async(GetParameters.Request(names=names)).add_done_callback(answered)
 
     # -- blocking (command-line tools) ------------------------------------------------------
     def _call(self, client, request, timeout_s: float):

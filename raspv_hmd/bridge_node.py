@@ -137,8 +137,7 @@ class BridgeNode(RaspvNode):
         self.request_guard.trigger()
 
     def _spv_ready(self) -> bool:
-        # ParamClient has no public readiness check yet; the test probe uses the same clients
-        return self.spv._get.service_is_ready() and self.spv._set.service_is_ready()
+        return self.spv.is_ready()
 
     def _next_request(self) -> None:
         """Start the oldest queued request once the previous one ended and the spv node's
@@ -163,21 +162,9 @@ class BridgeNode(RaspvNode):
             self._finish(rid, f"node {self.spv.target} is not running or not reachable", ok=False)
 
     def _get(self, rid: int, names: list[str], then: Callable[[dict[str, Any]], None]) -> None:
-        """Current values of ``names`` (None for parameters the node lacks), one request per name
-        because a request naming an unknown parameter gets no values at all. No answer (the node
-        is absent) is reported by the timeout check."""
-        values: dict[str, Any] = {}
-
-        def ask(i: int) -> None:
-            if i == len(names):
-                then(values)
-                return
-
-            def got(answer: dict[str, Any]) -> None:
-                values[names[i]] = answer.get(names[i])
-                ask(i + 1)
-            self.spv.get_async([names[i]], got)
-        ask(0)
+        """Current values of ``names`` (None for parameters the node lacks). No answer (the
+        node is absent) is reported by the timeout check."""
+        self.spv.get_async(names, then)
 
     def _set(self, rid: int, name: str, value: Any, current: Any, text: str) -> None:
         if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
