@@ -26,6 +26,7 @@ import yaml
 from raspv_bringup.middleware import apply_middleware_defaults
 
 ACTIONS = ("record", "play", "info", "repair", "from-frames")
+CLEAR_EOL = "\x1b[K"  # erase the rest of a terminal line
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -132,8 +133,8 @@ def _record(args: argparse.Namespace) -> int:
     previous = {s: signal.signal(s, lambda *_: stop.append(True)) for s in (signal.SIGINT, signal.SIGTERM)}
     rclpy.init(args=["raspv", "--ros-args", "--disable-rosout-logs"], signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node(f"raspv_bag_record_{os.getpid()}")
-    recorder = _GraphRecorder(node, recording, selection)
     tty = sys.stderr.isatty()
+    recorder = _GraphRecorder(node, recording, selection, tty)
     print(f"recording to {out} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
     start = time.monotonic()
     last_status = last_discovery = last_flush = 0.0
@@ -151,7 +152,7 @@ def _record(args: argparse.Namespace) -> int:
                 last_status = now
                 width = os.get_terminal_size(sys.stderr.fileno()).columns - 1 if tty else 200
                 line = recording.status_line(width)
-                print("\r" + line if tty else line, end="" if tty else "\n", file=sys.stderr, flush=True)
+                print(f"\r{line}{CLEAR_EOL}" if tty else line, end="" if tty else "\n", file=sys.stderr, flush=True)
             if args.duration is not None and now - start >= args.duration:
                 break
     finally:
@@ -171,8 +172,9 @@ def _record(args: argparse.Namespace) -> int:
 class _GraphRecorder:
     """Subscribes (raw) to every selected topic as it appears."""
 
-    def __init__(self, node, recording, selection) -> None:
+    def __init__(self, node, recording, selection, tty: bool) -> None:
         self.node, self.recording, self.selection = node, recording, selection
+        self.line_start = "\r" + CLEAR_EOL if tty else ""  # overwrite the status line on a terminal
         self.subscriptions: dict[str, object] = {}
         self.skipped: set[str] = set()
 
@@ -215,11 +217,11 @@ class _GraphRecorder:
                 cls, name, lambda data, topic=name: write(topic, data, time.time_ns()), qos, raw=True)
             kind = ("reliable" if qos.reliability == ReliabilityPolicy.RELIABLE else "best-effort") + \
                    (", transient-local" if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL else "")
-            print(f"\r+ {name} [{msgtype}] ({kind})", file=sys.stderr, flush=True)
+            print(f"{self.line_start}+ {name} [{msgtype}] ({kind})", file=sys.stderr, flush=True)
 
     def _skip(self, name: str, why: str) -> None:
         self.skipped.add(name)
-        print(f"\rraspv bag record: skipping {name}: {why}", file=sys.stderr, flush=True)
+        print(f"{self.line_start}raspv bag record: skipping {name}: {why}", file=sys.stderr, flush=True)
 
 
 # -- play ---------------------------------------------------------------------------------------

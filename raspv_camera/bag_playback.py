@@ -166,6 +166,14 @@ class Player:
     def stop(self) -> None:
         self._stop.set()
 
+    @property
+    def stop_requested(self) -> bool:
+        return self._stop.is_set()
+
+    def wait_stop(self, timeout_s: float) -> bool:
+        """Sleep up to ``timeout_s``; True as soon as :meth:`stop` was called."""
+        return self._stop.wait(timeout_s)
+
     def set_rate(self, rate: float) -> None:
         if not rate > 0:
             raise ValueError(f"rate must be > 0, got {rate}")

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from rosbags.interfaces import MessageDefinitionFormat
-from rosbags.rosbag2 import Reader, ReaderError
+from rosbags.rosbag2 import Reader
 from rosbags.rosbag2.metadata import parse_qos
 
 from raspv_camera.bag_mcap_salvage import McapDamaged, McapSalvage
@@ -144,7 +144,7 @@ def _open_file(path: Path, notes: list[str]):
             notes.append(note)
         try:
             return _RosbagsSource(path)
-        except (ReaderError, Exception) as exc:
+        except Exception as exc:  # apsw/rosbags errors of a damaged database
             raise BagError(f"{path}: not a readable SQLite bag ({_reason(exc)})") from None
     if kind == "mcap":
         try:

@@ -77,7 +77,6 @@ class ReplayNode(RaspvNode):
         self.report: PlaybackReport | None = None
         self._status_t = 0.0
         self._reported = False
-        self.player.options.loop = p["loop"]
         if p["paused"]:
             self.player.set_paused(True)
         self.create_timer(2.0, self._check_other_publishers)
@@ -100,19 +99,18 @@ class ReplayNode(RaspvNode):
 
     def _wait_before_start(self) -> None:
         """``delay``, then ``wait_for_subscribers`` (at most 30 s), unless stopped meanwhile."""
-        stop = self.player._stop
-        if self.params["delay"] > 0 and stop.wait(self.params["delay"]):
+        if self.params["delay"] > 0 and self.player.wait_stop(self.params["delay"]):
             return
         need = self.params["wait_for_subscribers"]
         deadline = time.monotonic() + 30.0
-        while need and not stop.is_set():
+        while need and not self.player.stop_requested:
             have = sum(p.get_subscription_count() for p in self.publishers_by_topic.values())
             if have >= need:
                 return
             if time.monotonic() > deadline:
                 self.get_logger().warning(f"only {have} of {need} subscriptions after 30 s; starting anyway")
                 return
-            stop.wait(0.05)
+            self.player.wait_stop(0.05)
 
     def _play(self) -> None:
         self._wait_before_start()
@@ -121,7 +119,7 @@ class ReplayNode(RaspvNode):
         except Exception as exc:  # a reading failure the reader could not absorb
             self.get_logger().error(f"playback stopped: {exc}")
             self.report = None
-        if not self.player._stop.is_set():
+        if not self.player.stop_requested:
             self._log_report()
             if self.params["at_end"] == "exit":
                 self.context.try_shutdown()
@@ -133,7 +131,7 @@ class ReplayNode(RaspvNode):
         self._status_t = now
         total = sum(self.player.counts.values())
         print(f"\r[replay] {self.player.position_s:6.1f} / {self.player.reader.duration_s:.1f} s  "
-              f"{total} messages  rate {self.player.rate:g}   ", end="", file=sys.stderr, flush=True)
+              f"{total} messages  rate {self.player.rate:g}\x1b[K", end="", file=sys.stderr, flush=True)
 
     def _log_report(self) -> None:
         if self._reported or self.report is None:

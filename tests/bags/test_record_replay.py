@@ -68,24 +68,43 @@ def test_record_the_source_then_replay_it_byte_for_byte(graph, probe, tmp_path):
     assert received[-1][1] - received[0][1] >= 0.95 * span_bag
 
 
-def test_a_killed_recorder_leaves_a_readable_and_repairable_bag(graph, probe, tmp_path):
-    graph(SOURCE)
-    probe.wait_for_message(T.COLOR, Image, timeout=60)
-    out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "raspv_bringup.cli", "bag", "record", "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+def _record_until(out, sig, storage="mcap", then=None):
+    """Start a recorder (then call ``then()``), wait until it has written a few seconds of
+    data, send it ``sig``."""
+    proc = subprocess.Popen([sys.executable, "-m", "raspv_bringup.cli", "bag", "record", "-o", str(out),
+                             "-s", storage], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
+        if then is not None:
+            then()
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
-            files = list(out.glob("*.mcap")) if out.exists() else []
+            files = list(out.glob("*.mcap")) + list(out.glob("*.db3")) if out.exists() else []
             if files and files[0].stat().st_size > 3_000_000:  # a few seconds of 160x120 RGB-D
                 break
             time.sleep(0.1)
         else:
             pytest.fail("the recorder wrote nothing within 60 s")
     finally:
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait()
+        os.kill(proc.pid, sig)
+        output, _ = proc.communicate(timeout=30)
+    return proc.returncode, output
+
+
+def test_topics_appearing_later_are_recorded_and_ctrl_c_closes_a_complete_bag(graph, probe, tmp_path):
+    code, output = _record_until(tmp_path / "sqlite", signal.SIGINT, "sqlite3", then=lambda: graph(SOURCE))
+    assert code == 0 and "messages over" in output, output
+    assert "+ /camera/depth/image_raw" in output
+    with BagReader(tmp_path / "sqlite") as r:
+        assert r.complete and r.storage == "sqlite3" and r.notes == []
+        assert set(CAMERA) <= set(r.topics) and r.topics[T.COLOR].count >= 5
+
+
+def test_a_killed_recorder_leaves_a_readable_and_repairable_bag(graph, probe, tmp_path):
+    graph(SOURCE)
+    probe.wait_for_message(T.COLOR, Image, timeout=60)
+    out = tmp_path / "killed"
+    code, _ = _record_until(out, signal.SIGKILL)
+    assert code == -signal.SIGKILL
     assert not (out / "metadata.yaml").exists()
     with BagReader(out) as r:
         assert not r.complete and any("not closed" in n for n in r.notes)
