@@ -162,6 +162,14 @@ class Player:
         self._anchor_bag = self.start_ns
         self.last_ts: int | None = None
 
+    def drop_topics(self, names: Iterable[str], why: str) -> None:
+        """Leave bag topics ``names`` out (before :meth:`run`), with a note saying ``why``."""
+        names = set(names)
+        for t in [t for t in self.topics if t.name in names]:
+            self.topics.remove(t)
+            self.counts.pop(self.out_topic[t.name], None)
+            self.notes.append(f"{t.name}: {why}; not replayed")
+
     # -- control from other threads ----------------------------------------------------------
     def stop(self) -> None:
         self._stop.set()

@@ -55,16 +55,17 @@ class ReplayNode(RaspvNode):
         except (BagError, ValueError) as exc:
             raise ConfigurationError(str(exc)) from None
         self.publishers_by_topic = {}
-        for t in self.player.topics:
+        for t in list(self.player.topics):
             out = self.player.out_topic[t.name]
             try:
                 cls = message_class(t.msgtype)
             except ValueError:
-                self.player.notes.append(f"{t.name}: message type {t.msgtype} is not installed; not replayed")
+                self.player.drop_topics([t.name], f"message type {t.msgtype} is not installed")
                 continue
             kind, spec = publisher_qos(out, t.qos)
             self.publishers_by_topic[out] = self.create_publisher(cls, out, _profile(kind, spec))
         if not self.publishers_by_topic:
+            self.player.reader.close()
             raise ConfigurationError(f"{p['bag']}: none of its message types are installed; nothing to replay")
         self.pub_clock = self.create_publisher(Clock, topics.CLOCK, CLOCK_QOS) if p["publish_clock"] else None
         for note in self.player.notes:
@@ -86,9 +87,8 @@ class ReplayNode(RaspvNode):
 
     # -- playback thread ----------------------------------------------------------------------
     def _publish(self, topic: str, _msgtype: str, data) -> None:
-        pub = self.publishers_by_topic.get(topic)
-        if pub is not None:
-            pub.publish(bytes(data) if not isinstance(data, bytes) else data)
+        pub = self.publishers_by_topic[topic]
+        pub.publish(data if isinstance(data, bytes) else bytes(data))
         if self.params["progress"]:
             self._print_status()
 

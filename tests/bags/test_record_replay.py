@@ -153,6 +153,23 @@ def test_bad_bags_stop_the_replay_node_with_one_line(graph, tmp_path):
     assert play.returncode != 0 and "configuration error" in play.stderr and "Traceback" not in play.stderr
 
 
+def test_topics_of_types_not_installed_are_skipped_with_a_warning(tmp_path):
+    from raspv_camera.bag_writer import BagWriter
+
+    with BagWriter(tmp_path / "mixed") as w:
+        w.add_topic("/lab/trial", "lab_msgs/msg/Trial", msgdef="int32 a\n")
+        w.add_topic("/note", "std_msgs/msg/String")
+        for i in range(3):
+            w.write("/lab/trial", 10**9 + i * 10**7, b"\x00\x01\x00\x00" + i.to_bytes(4, "little"))
+            w.write("/note", 10**9 + i * 10**7, b"\x00\x01\x00\x00\x02\x00\x00\x00a\x00")
+    play = raspv("bag", "play", str(tmp_path / "mixed"))
+    assert play.returncode == 0, play.stderr
+    assert "/lab/trial: message type lab_msgs/msg/Trial is not installed; not replayed" in play.stderr
+    assert "finished: 3 messages" in play.stderr
+    only = raspv("bag", "play", str(tmp_path / "mixed"), "--topics", "/lab/trial")
+    assert only.returncode == 2 and "none of its message types are installed" in only.stderr
+
+
 def test_replay_drives_the_spv_node_to_the_same_levels_as_the_live_source(graph, probe, tmp_path):
     """Live: synthetic → spv, recorded. Replay: bag → spv. The same camera frame gives the
     same phosphene levels (the mode is deterministic; brightness also depends on timing)."""
