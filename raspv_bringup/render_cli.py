@@ -34,6 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     spv.add_argument("--seed", type=int, help="seed of dropout and noise")
     spv.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                      help="any other spv parameter, e.g. --set num_phosphenes=500 (see `raspv nodes`)")
+    spv.add_argument("--scene-set", action="append", default=[], metavar="NAME=VALUE",
+                     help="a scene node parameter for the scene modes, e.g. --scene-set stride=2")
     parser.add_argument("--side-by-side", action="store_true",
                         help="colour image and the mode's other inputs (depth) next to the phosphenes")
     parser.add_argument("--start", type=float, default=0.0, metavar="S", help="start S seconds into the bag")
@@ -47,18 +49,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--info-topic", default=None, help="camera info topic (default /camera/color/camera_info)")
 
 
+def _file_section(path: str, node: str, required: bool) -> dict:
+    """``node: ros__parameters:`` of a graph or parameter file (ValueError if unreadable)."""
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f"{path}: cannot read ({exc})") from None
+    section = data.get(node) if isinstance(data, dict) else None
+    if section is None and not required:
+        return {}
+    if not isinstance(section, dict) or not isinstance(section.get("ros__parameters") or {}, dict):
+        raise ValueError(f"{path}: no '{node}: ros__parameters:' section")
+    return dict(section.get("ros__parameters") or {})
+
+
+def _assignments(items: list[str], flag: str) -> dict:
+    out = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or not name.strip():
+            raise ValueError(f"bad {flag} {item!r}: expected NAME=VALUE")
+        out[name.strip()] = yaml.safe_load(text)
+    return out
+
+
+def _scene_params(args: argparse.Namespace) -> dict:
+    """scene parameter values from --params FILE (its 'scene' section), then --scene-set."""
+    out = _file_section(args.params, "scene", required=False) if args.params else {}
+    out.update(_assignments(args.scene_set, "--scene-set"))
+    return out
+
+
 def _spv_params(args: argparse.Namespace) -> dict:
     """spv parameter values from --params FILE, then the flags, then --set (ValueError if bad)."""
-    out: dict = {}
-    if args.params:
-        try:
-            data = yaml.safe_load(Path(args.params).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise ValueError(f"{args.params}: cannot read ({exc})") from None
-        section = (data or {}).get("spv") or (data or {}).get("/**") if isinstance(data, dict) else None
-        if not isinstance(section, dict) or not isinstance(section.get("ros__parameters", {}), dict):
-            raise ValueError(f"{args.params}: no 'spv: ros__parameters:' section")
-        out.update(section.get("ros__parameters") or {})
+    out: dict = _file_section(args.params, "spv", required=True) if args.params else {}
     flags = {"device": args.device, "mode": args.mode, "width": args.width, "rate": args.rate,
              "max_depth": args.max_depth, "dropout": args.dropout, "noise_px": args.noise, "seed": args.seed,
              "overlays": args.overlay}
@@ -67,11 +91,7 @@ def _spv_params(args: argparse.Namespace) -> dict:
         out["temporal"] = False
     if args.green:
         out["output_format"] = "green"
-    for item in args.set:
-        name, sep, text = item.partition("=")
-        if not sep or not name:
-            raise ValueError(f"bad --set {item!r}: expected NAME=VALUE")
-        out[name.strip()] = yaml.safe_load(text)
+    out.update(_assignments(args.set, "--set"))
     return out
 
 
@@ -108,11 +128,11 @@ def run(args: argparse.Namespace) -> int:
         except FramesError as exc:
             return fail(str(exc))
     try:
-        spv = _spv_params(args)
+        spv, scene = _spv_params(args), _scene_params(args)
     except ValueError as exc:
         return fail(str(exc))
-    s = RenderSettings(spv=spv, side_by_side=args.side_by_side, start_s=args.start, duration_s=args.duration,
-                       intrinsics=intrinsics)
+    s = RenderSettings(spv=spv, scene=scene, side_by_side=args.side_by_side, start_s=args.start,
+                       duration_s=args.duration, intrinsics=intrinsics)
     for attr in ("color_topic", "depth_topic", "info_topic"):
         if getattr(args, attr):
             setattr(s, attr, getattr(args, attr))

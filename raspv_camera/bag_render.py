@@ -39,8 +39,11 @@ from raspv_spv.config import config_from_node_params
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.simulator import InputError, PhospheneSimulator
 
-# Inputs a bag provides (the others come from perception nodes, which offline rendering does not run).
+# Inputs a bag provides, and those computed offline from them by the scene node's core.
 BAG_INPUTS = frozenset({"color", "depth", "camera", "camera_pose"})
+SCENE_INPUTS = frozenset({"scene", "scene_labels"})
+# scene classes named in the side-by-side legend (raspv_perception.scene_labels ids)
+SCENE_LEGEND = (("floor", 1), ("wall", 2), ("table/step", 3), ("obstacle", 4), ("blocked floor", 6), ("other", 5))
 PANEL_LABEL_SCALE = 0.5
 
 
@@ -57,6 +60,7 @@ class RenderSettings:
     to override it)."""
 
     spv: dict[str, Any] = field(default_factory=dict)
+    scene: dict[str, Any] = field(default_factory=dict)
     side_by_side: bool = False
     start_s: float = 0.0
     duration_s: float | None = None
@@ -78,6 +82,45 @@ class RenderSettings:
         if errors:
             raise RenderError("; ".join(f"{k}: {m}" for k, m in errors))
         return {**schema.defaults(), **values}
+
+    def scene_params(self) -> dict[str, Any]:
+        """The scene node's parameter values (defaults plus :attr:`scene`), validated."""
+        from raspv_common.params import ParamSchema
+        from raspv_perception.scene_params import PARAMS
+
+        schema = ParamSchema.of(PARAMS)
+        values, errors = schema.validate(self.scene)
+        if errors:
+            raise RenderError("scene " + "; ".join(f"{k}: {m}" for k, m in errors))
+        return {**schema.defaults(), **values}
+
+
+class OfflineScene:
+    """The ``scene`` node's work on the frames of a bag: :class:`ScenePerception` (the node's
+    core, configured from its parameters) on every depth frame, in order, with the camera pose
+    as prior when the node would use it (``use_pose_prior``, within ``pose_max_age``)."""
+
+    def __init__(self, params: dict[str, Any]) -> None:
+        import dataclasses
+
+        from raspv_perception.scene_config import SceneConfig
+        from raspv_perception.scene_params import CONFIG_FIELDS
+        from raspv_perception.scene_perception import ScenePerception
+
+        try:
+            config = dataclasses.replace(SceneConfig(), **{k: params[k] for k in CONFIG_FIELDS})
+        except ValueError as exc:
+            raise RenderError(f"scene perception: {exc}") from None
+        self.perception = ScenePerception(config)
+        self.params = params
+
+    def add(self, inputs: FrameInputs, pose_stamp_s: float | None) -> None:
+        prior = None
+        if (self.params["use_pose_prior"] and inputs.camera_pose is not None and pose_stamp_s is not None
+                and abs(pose_stamp_s - inputs.stamp) <= self.params["pose_max_age"]):
+            prior = inputs.camera_pose
+        result = self.perception.process(inputs.depth, inputs.camera, prior)
+        inputs.scene, inputs.scene_labels = result.structure, result.labels
 
 
 @dataclass
@@ -111,18 +154,21 @@ class BagFrameSource:
         self.reader = reader
         self.s = settings
         self.notes: list[str] = []
-        unsupported = sorted(needs - BAG_INPUTS)
+        unsupported = sorted(needs - BAG_INPUTS - SCENE_INPUTS)
         if unsupported:
-            raise RenderError(f"mode {mode!r} needs {', '.join(unsupported)}, which comes from perception "
-                              f"nodes; offline rendering provides {', '.join(sorted(BAG_INPUTS))}")
-        self.want_color = "color" in needs or settings.side_by_side
-        self.want_depth = "depth" in needs
-        self.want_pose = "camera_pose" in needs
+            raise RenderError(f"mode {mode!r} needs {', '.join(unsupported)}, which offline rendering does not "
+                              f"provide (it has {', '.join(sorted(BAG_INPUTS | SCENE_INPUTS))})")
         have = reader.topics
+        self.scene = OfflineScene(settings.scene_params()) if needs & SCENE_INPUTS else None
+        self.want_color = "color" in needs or settings.side_by_side
+        self.want_depth = "depth" in needs or self.scene is not None
+        self.want_pose = "camera_pose" in needs or (self.scene is not None and settings.pose_topic in have)
+        if self.scene is not None and "depth" not in needs:
+            needs = needs | {"depth"}  # scene perception works on depth
         listing = ", ".join(sorted(have)) or "none"
         for want, topic, what in ((self.want_color and "color" in needs, settings.color_topic, "colour"),
                                   (self.want_depth, settings.depth_topic, "depth"),
-                                  (self.want_pose, settings.pose_topic, "camera pose")):
+                                  ("camera_pose" in needs, settings.pose_topic, "camera pose")):
             if want and topic not in have:
                 raise RenderError(f"mode {mode!r} needs {what} images but the bag has no {topic} "
                                   f"(its topics: {listing})")
@@ -240,16 +286,20 @@ class BagFrameSource:
         cam = self._camera(w, h)
         if cam is None:
             return None
-        pose = None
+        pose = pose_stamp = None
         if pmsg is not None:
             pm = self._decode(pmsg)
             if pm is not None:
                 try:
                     pose = pose_to_matrix(pm.pose)
+                    pose_stamp = pm.header.stamp.sec + pm.header.stamp.nanosec * 1e-9
                 except ValueError:
                     pose = None
-        return RgbdFrame(bag_ns, FrameInputs(color=color, depth=depth, camera=cam,
-                                             stamp=bag_ns * 1e-9, camera_pose=pose))
+        stamp = _header_stamp_ns(dmsg if dmsg is not None else cmsg) * 1e-9
+        inputs = FrameInputs(color=color, depth=depth, camera=cam, stamp=stamp, camera_pose=pose)
+        if self.scene is not None:
+            self.scene.add(inputs, pose_stamp)
+        return RgbdFrame(bag_ns, inputs)
 
     def _camera(self, w: int, h: int) -> CameraIntrinsics | None:
         if self.fixed_intrinsics is not None:
@@ -287,8 +337,14 @@ def _bgr(img: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
 
 
+def _text_band(img: np.ndarray, width: int) -> None:
+    """Darken the top-left corner behind a caption so it reads on any image."""
+    band = img[:28, :min(img.shape[1], width + 16)]
+    band[:] = (band * 0.35).astype(np.uint8)
+
+
 def _label(img: np.ndarray, text: str) -> np.ndarray:
-    cv2.putText(img, text, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, PANEL_LABEL_SCALE, (0, 0, 0), 3, cv2.LINE_AA)
+    _text_band(img, cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, PANEL_LABEL_SCALE, 1)[0][0])
     cv2.putText(img, text, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, PANEL_LABEL_SCALE, (255, 255, 255), 1, cv2.LINE_AA)
     return img
 
@@ -300,6 +356,30 @@ def depth_panel(depth: np.ndarray, max_depth: float) -> np.ndarray:
     out = cv2.applyColorMap(scaled, cv2.COLORMAP_TURBO)
     out[~np.isfinite(depth) | (d <= 0)] = 0
     return out
+
+
+def _legend(img: np.ndarray, items: tuple[tuple[str, int], ...]) -> np.ndarray:
+    """Words in their class colours along the top of a panel."""
+    from raspv_perception.scene_labels import COLORS
+
+    widths = [cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, PANEL_LABEL_SCALE, 1)[0][0] for t, _ in items]
+    _text_band(img, sum(widths) + 12 * (len(items) - 1))
+    x = 8
+    for (text, cls), w in zip(items, widths):
+        colour = tuple(int(c) for c in COLORS[cls][::-1])
+        cv2.putText(img, text, (x, 20), cv2.FONT_HERSHEY_SIMPLEX, PANEL_LABEL_SCALE, colour, 1, cv2.LINE_AA)
+        x += w + 12
+    return img
+
+
+def labels_panel(labels: np.ndarray) -> np.ndarray:
+    """Scene classes (``raspv_perception.scene_labels``) → BGR image in their display colours."""
+    from raspv_perception.scene_labels import COLORS
+
+    lut = np.zeros((256, 3), np.uint8)
+    for cls, rgb in COLORS.items():
+        lut[cls] = rgb[::-1]
+    return lut[labels]
 
 
 class PanelComposer:
@@ -343,6 +423,9 @@ class PanelComposer:
         if inputs is not None and inputs.depth is not None and "depth" in self.needs:
             img, k = self._fit(depth_panel(inputs.depth, self.max_depth))
             panels.append(_label(self._draw_field(img, k, cam), f"depth 0-{self.max_depth:g} m"))
+        if inputs is not None and inputs.scene_labels is not None and "scene_labels" in self.needs:
+            img, k = self._fit(labels_panel(inputs.scene_labels))
+            panels.append(_legend(self._draw_field(img, k, cam), SCENE_LEGEND))
         panels.append(_label(_bgr(phosphenes).copy(), self.title))
         return np.hstack(panels)
 

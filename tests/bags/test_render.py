@@ -70,6 +70,28 @@ def test_real_frames_render_through_from_frames(data_dir, tmp_path):
     assert report.frames == len(_video_frames(tmp_path / "real.mp4")) == 26  # 0.518 s at 50 Hz
 
 
+def test_scene_modes_run_the_scene_nodes_core_offline(tmp_path):
+    """Wall-Obstacles needs the scene classes: render runs scene perception on each depth frame."""
+    from raspv_camera.bag_from_frames import RgbdBagWriter
+    from raspv_camera.synthetic_scene import SyntheticRoom
+    from raspv_perception.scene_labels import COLORS, FLOOR, WALL
+
+    cam = CameraIntrinsics.from_hfov(160, 120, 60.0)
+    room = SyntheticRoom(cam)
+    with RgbdBagWriter(tmp_path / "room") as out:
+        for i in range(4):
+            color, depth = room.render(room.pose_at(i * 0.1))
+            out.add(100.0 + i * 0.1, color, depth, cam)
+    report = render_bag(tmp_path / "room", None, tmp_path / "png",
+                        RenderSettings(spv={**SMALL, "mode": "wall_obstacles", "temporal": False}, side_by_side=True))
+    assert report.camera_frames == 4
+    frame = cv2.imread(str(sorted((tmp_path / "png").glob("*.png"))[-1]))
+    labels = frame[40:, 267:534]  # colour | scene classes | phosphenes, each 200 px high
+    for cls in (FLOOR, WALL):
+        assert (np.abs(labels.astype(int) - COLORS[cls][::-1]).sum(axis=2) < 10).mean() > 0.05
+    assert frame[:, 534:].max() > 100  # walls and obstacles light phosphenes
+
+
 def test_missing_camera_info_needs_intrinsics(tmp_path):
     from raspv_camera.bag_from_frames import _Serialiser
 
