@@ -40,7 +40,7 @@ from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.simulator import InputError, PhospheneSimulator
 
 # Inputs a bag provides, and those computed offline from them by the scene node's core.
-BAG_INPUTS = frozenset({"color", "depth", "camera", "camera_pose"})
+BAG_INPUTS = frozenset({"color", "depth", "camera", "camera_pose", "nav_path"})
 SCENE_INPUTS = frozenset({"scene", "scene_labels"})
 # scene classes named in the side-by-side legend (raspv_perception.scene_labels ids)
 SCENE_LEGEND = (("floor", 1), ("wall", 2), ("table/step", 3), ("obstacle", 4), ("blocked floor", 6), ("other", 5))
@@ -69,6 +69,7 @@ class RenderSettings:
     depth_topic: str = T.DEPTH
     info_topic: str = T.CAMERA_INFO
     pose_topic: str = T.CAMERA_POSE
+    path_topic: str = T.NAV_PATH
     pair_tolerance_s: float = 0.02
 
     def spv_params(self) -> dict[str, Any]:
@@ -150,27 +151,31 @@ class RenderReport:
 class BagFrameSource:
     """RGB-D frames of a bag (see the module docstring)."""
 
-    def __init__(self, reader: BagReader, settings: RenderSettings, needs: frozenset[str], mode: str) -> None:
+    def __init__(self, reader: BagReader, settings: RenderSettings, needs: frozenset[str], what: str) -> None:
+        """``what``: the mode and overlays, for messages (e.g. "mode 'grey' + overlay 'path'")."""
         self.reader = reader
         self.s = settings
         self.notes: list[str] = []
         unsupported = sorted(needs - BAG_INPUTS - SCENE_INPUTS)
         if unsupported:
-            raise RenderError(f"mode {mode!r} needs {', '.join(unsupported)}, which offline rendering does not "
+            raise RenderError(f"{what} needs {', '.join(unsupported)}, which offline rendering does not "
                               f"provide (it has {', '.join(sorted(BAG_INPUTS | SCENE_INPUTS))})")
         have = reader.topics
         self.scene = OfflineScene(settings.scene_params()) if needs & SCENE_INPUTS else None
         self.want_color = "color" in needs or settings.side_by_side
         self.want_depth = "depth" in needs or self.scene is not None
         self.want_pose = "camera_pose" in needs or (self.scene is not None and settings.pose_topic in have)
+        self.want_path = "nav_path" in needs
+        self.nav_path: np.ndarray | None = None
         if self.scene is not None and "depth" not in needs:
             needs = needs | {"depth"}  # scene perception works on depth
         listing = ", ".join(sorted(have)) or "none"
-        for want, topic, what in ((self.want_color and "color" in needs, settings.color_topic, "colour"),
+        for want, topic, kind in ((self.want_color and "color" in needs, settings.color_topic, "colour"),
                                   (self.want_depth, settings.depth_topic, "depth"),
-                                  ("camera_pose" in needs, settings.pose_topic, "camera pose")):
+                                  ("camera_pose" in needs, settings.pose_topic, "camera pose"),
+                                  (self.want_path, settings.path_topic, "navigation path")):
             if want and topic not in have:
-                raise RenderError(f"mode {mode!r} needs {what} images but the bag has no {topic} "
+                raise RenderError(f"{what} needs {kind} messages but the bag has no {topic} "
                                   f"(its topics: {listing})")
         if self.want_color and settings.color_topic not in have:
             self.want_color = False
@@ -200,7 +205,7 @@ class BagFrameSource:
         s = self.s
         topics = [s.info_topic] if self.fixed_intrinsics is None else []
         topics += [t for t, w in ((s.color_topic, self.want_color), (s.depth_topic, self.want_depth),
-                                  (s.pose_topic, self.want_pose)) if w]
+                                  (s.pose_topic, self.want_pose), (s.path_topic, self.want_path)) if w]
         if self.fixed_intrinsics is None:
             self._first_camera_info()
         tol = int(s.pair_tolerance_s * 1e9)
@@ -219,6 +224,9 @@ class BagFrameSource:
                 continue
             if msg.topic == s.pose_topic:
                 pose = msg
+                continue
+            if msg.topic == s.path_topic:
+                self._path(msg)
                 continue
             stamp = _header_stamp_ns(msg)
             if stamp is None:
@@ -242,6 +250,17 @@ class BagFrameSource:
                 frame = self._frame(msg.timestamp_ns, c, d, pose)
             if frame is not None:
                 yield frame
+
+    def _path(self, msg: BagMessage) -> None:
+        """``nav_msgs/Path`` in the world frame → (N, 3) points for the path overlay (as the spv node)."""
+        path = self._decode(msg)
+        if path is None:
+            return
+        if path.header.frame_id not in ("world", ""):
+            self._note_once("pathframe", f"ignored {msg.topic} in frame {path.header.frame_id!r}; expected 'world'")
+            return
+        self.nav_path = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z] for p in path.poses],
+                                 dtype=float).reshape(-1, 3)
 
     def _first_camera_info(self) -> None:
         for msg in self.reader.messages([self.s.info_topic]):
@@ -297,6 +316,10 @@ class BagFrameSource:
                     pose = None
         stamp = _header_stamp_ns(dmsg if dmsg is not None else cmsg) * 1e-9
         inputs = FrameInputs(color=color, depth=depth, camera=cam, stamp=stamp, camera_pose=pose)
+        if self.want_path:
+            if self.nav_path is None:
+                return None  # no path received yet: the overlay cannot run on this frame
+            inputs.extras["nav_path"] = self.nav_path
         if self.scene is not None:
             self.scene.add(inputs, pose_stamp)
         return RgbdFrame(bag_ns, inputs)
@@ -488,7 +511,8 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
     with BagReader(bag) as reader:
         if reader.start_ns is None:
             raise RenderError(f"{bag}: the bag has no messages")
-        source = BagFrameSource(reader, s, sim.needs, config.mode)
+        what = f"mode {config.mode!r}" + "".join(f" + overlay {o!r}" for o in config.overlays)
+        source = BagFrameSource(reader, s, sim.needs, what)
         start_ns = reader.start_ns + int(s.start_s * 1e9)
         end_ns = reader.end_ns if s.duration_s is None else min(reader.end_ns, start_ns + int(s.duration_s * 1e9))
         if start_ns > reader.end_ns:

@@ -92,6 +92,41 @@ def test_scene_modes_run_the_scene_nodes_core_offline(tmp_path):
     assert frame[:, 534:].max() > 100  # walls and obstacles light phosphenes
 
 
+def test_path_overlay_takes_the_recorded_navigation_path(tmp_path):
+    from raspv_camera.bag_from_frames import RgbdBagWriter
+    from raspv_camera.bag_types import typestore
+
+    cam = CameraIntrinsics.from_hfov(64, 48, 60.0)
+    ty = typestore().types
+    with RgbdBagWriter(tmp_path / "nav", with_pose=True) as out:
+        out.writer.add_topic("/nav/path", "nav_msgs/msg/Path")
+        for i in range(3):
+            pose = np.eye(4)
+            pose[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # optical axis along world x, at 1.5 m height
+            pose[2, 3] = 1.5
+            header = out.ser.header(10**9 * (100 + i), "world")
+            if i:  # no path yet for the first frame
+                points = [ty["geometry_msgs/msg/PoseStamped"](header=header, pose=ty["geometry_msgs/msg/Pose"](
+                    position=ty["geometry_msgs/msg/Point"](x=float(x), y=0.0, z=1.5),  # at eye height: centre row
+                    orientation=ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+                    for x in np.linspace(0.5, 4.0, 8)]
+                path = ty["nav_msgs/msg/Path"](header=header, poses=points)
+                out.writer.write("/nav/path", 10**9 * (100 + i) - 1, typestore().serialize_cdr(path, "nav_msgs/msg/Path"))
+            out.add(100.0 + i, np.full((48, 64, 3), 80, np.uint8), np.full((48, 64), 5.0, np.float32), cam, pose)
+    report = render_bag(tmp_path / "nav", None, tmp_path / "png",
+                        RenderSettings(spv={**SMALL, "mode": "depth", "overlays": ["path"], "temporal": False}))
+    assert report.camera_frames == 2  # frames after the first path message
+    plain = render_bag(tmp_path / "nav", None, tmp_path / "plain_png",
+                       RenderSettings(spv={**SMALL, "mode": "depth", "temporal": False}))
+    with_path = cv2.imread(str(tmp_path / "png" / "frame_000000.png"), cv2.IMREAD_UNCHANGED)
+    without = cv2.imread(str(tmp_path / "plain_png" / f"frame_{plain.frames - report.frames:06d}.png"),
+                         cv2.IMREAD_UNCHANGED)
+    assert with_path[100].max() > without[100].max()  # the path's phosphenes at full level
+    with pytest.raises(RenderError, match="overlay 'path' needs (camera pose|navigation path) messages"):
+        render_bag(make_rgbd_bag(tmp_path / "plain", frames=2),
+                   tmp_path / "x.mp4", settings=RenderSettings(spv={"overlays": ["path"]}))
+
+
 def test_missing_camera_info_needs_intrinsics(tmp_path):
     from raspv_camera.bag_from_frames import _Serialiser
 
@@ -106,7 +141,7 @@ def test_missing_camera_info_needs_intrinsics(tmp_path):
     report = render_bag(tmp_path / "noinfo", tmp_path / "b.mp4",
                         settings=RenderSettings(spv=SMALL, intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}))
     assert report.frames == 21
-    with pytest.raises(RenderError, match="needs depth images but the bag has no /camera/depth/image_raw"):
+    with pytest.raises(RenderError, match="needs depth messages but the bag has no /camera/depth/image_raw"):
         render_bag(tmp_path / "noinfo", tmp_path / "c.mp4",
                    settings=RenderSettings(spv={"mode": "depth"}, intrinsics={"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5}))
 
