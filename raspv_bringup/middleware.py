@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Mapping
 
 CONFIG_DIR = Path(__file__).resolve().parents[1] / "config"
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "LP_NUM_THREADS")
 SHM_PROFILE = CONFIG_DIR / "fastdds_shm.xml"
 MULTIHOST_PROFILE = CONFIG_DIR / "fastdds_multihost.xml"
 
@@ -24,6 +24,8 @@ def middleware_env(base: Mapping[str, str], extra: Mapping[str, str] | None = No
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     # One process per node already uses the cores; BLAS/OpenMP thread pools in every node
     # spin and fight over them (measured: a 35 ms numpy render took 130 % CPU with them).
+    # LP_NUM_THREADS is Mesa llvmpipe's (the simulator's EGL renderer): spread over both cores
+    # it delayed the spv display loop, 24 % dropped display frames in the demo vs 7 % with one.
     for var in THREAD_VARS:
         env.setdefault(var, "1")
     # Fast DDS 2.14 (Jazzy) reads FASTRTPS_DEFAULT_PROFILES_FILE; FASTDDS_… is the 3.x name.
