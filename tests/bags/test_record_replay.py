@@ -17,7 +17,7 @@ from std_msgs.msg import String
 from raspv_camera.bag_reader import BagReader
 from raspv_camera.bag_repair import repair_bag
 from raspv_common import topics as T
-from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import LATCHED_QOS
 
 pytestmark = pytest.mark.integration
 
