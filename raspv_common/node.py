@@ -28,6 +28,10 @@ class ConfigurationError(Exception):
     """A configuration the node cannot run with; reported as one line, exit code 2."""
 
 
+_ARRAY_TYPES = {bool: Parameter.Type.BOOL_ARRAY, int: Parameter.Type.INTEGER_ARRAY,
+                float: Parameter.Type.DOUBLE_ARRAY, str: Parameter.Type.STRING_ARRAY}
+
+
 def _plain(value: Any) -> Any:
     """rclpy returns arrays as array.array/tuples; the schema works with lists."""
     if isinstance(value, (tuple, bytes)) or type(value).__name__ == "array":
@@ -64,6 +68,11 @@ class RaspvNode(Node):
             # ROS infers an empty list as a byte array; let the schema check the elements instead.
             descriptor.dynamic_typing = isinstance(default, list) and not default
             self.declare_parameter(p.name, default, descriptor)
+        # rcl reads `name: []` in a parameter file as "not set": that is an empty list.
+        empty = [Parameter(p.name, _ARRAY_TYPES[p.element_kind], []) for p in self._schema
+                 if p.kind is list and self.get_parameter(p.name).type_ == Parameter.Type.NOT_SET]
+        if empty:
+            self.set_parameters(empty)
         raw = {p.name: _plain(self.get_parameter(p.name).value) for p in self._schema}
         values, errors = self._schema.validate(raw)
         if errors:

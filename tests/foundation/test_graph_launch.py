@@ -122,3 +122,13 @@ def test_command_line_overrides_are_validated(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "launch", str(path), "cam.walk_speed:=fast",
                           "--check"], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "walk_speed" in bad.stderr
+
+
+def test_empty_list_in_a_parameter_file_is_an_empty_list(graph, probe):
+    """rcl reads `name: []` as "not set"; the node base makes it an empty list."""
+    g = graph({"launch": {"nodes": [{"kind": "spv"}]}, "spv": {"ros__parameters": {"overlays": []}}})
+    g.wait_for_output(r"\[spv\].*phosphenes")
+    assert probe.get_params("spv", ["overlays"]) == {"overlays": []}
+    [(_, ok, reason)] = probe.set_params("spv", {"overlays": ["path"]})
+    assert ok, reason
+    assert g.running()
