@@ -12,15 +12,19 @@ import sys
 import time
 from typing import Any, Callable, Sequence
 
+import numpy as np
 import rclpy
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
 
-from raspv_common.conversions import seconds_to_stamp
+from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image,
+                                      seconds_to_stamp)
+from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.params import Param, ParamSchema
 
 
@@ -62,6 +66,7 @@ class RaspvNode(Node):
         super().__init__(name, **kwargs)
         self._schema = ParamSchema.of(params)
         self._throttle: dict[str, float] = {}
+        self.intrinsics: CameraIntrinsics | None = None   # kept by on_camera_info
         for p in self._schema:
             default = list(p.default) if isinstance(p.default, tuple) else p.default
             descriptor = _descriptor(p)
@@ -125,6 +130,29 @@ class RaspvNode(Node):
         """A header stamped now (node clock) or at ``stamp_s`` seconds."""
         stamp = self.get_clock().now().to_msg() if stamp_s is None else seconds_to_stamp(stamp_s)
         return Header(stamp=stamp, frame_id=frame_id)
+
+    def on_camera_info(self, msg: CameraInfo) -> None:
+        """Subscription callback keeping the latest camera model in ``self.intrinsics``; an
+        invalid one is warned about (throttled) and ignored."""
+        try:
+            self.intrinsics = camera_info_to_intrinsics(msg)
+        except ValueError as exc:
+            self.warn_throttled("camera-info", f"ignoring camera info: {exc}")
+
+    def read_depth(self, msg: Image) -> np.ndarray | None:
+        """Depth in metres (NaN holes) from ``msg``, or None — warned about, throttled — when its
+        encoding is not a depth encoding or its size differs from ``self.intrinsics``."""
+        try:
+            depth = depth_from_image(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("depth", f"ignoring depth image: {exc}")
+            return None
+        K = self.intrinsics
+        if K is not None and depth.shape != (K.height, K.width):
+            self.warn_throttled("depth-size", f"depth {depth.shape[1]}x{depth.shape[0]} does not match camera info "
+                                              f"{K.width}x{K.height}; ignoring it")
+            return None
+        return depth
 
     def close(self) -> None:
         """Release resources (flush logs, close files); called once at shutdown."""

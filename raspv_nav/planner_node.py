@@ -18,8 +18,7 @@ from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
-from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image,
-                                      pose_to_matrix, stamp_to_seconds)
+from raspv_common.conversions import (pose_to_matrix, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_nav.assistant import NavigationAssistant
@@ -50,13 +49,12 @@ class PlannerNode(RaspvNode):
         self.pose: tuple[float, float, float] | None = None
         self.velocity = (0.0, 0.0)
         self.odom_seen = False
-        self.intrinsics = None
         self.pub_path = self.create_publisher(PathMsg, topics.NAV_PATH, SENSOR_QOS)
         self.pub_hint = self.create_publisher(Twist, CMD_VEL_HINT, COMMAND_QOS)
         self.pub_costmap = self.create_publisher(OccupancyGridMsg, GLOBAL_COSTMAP, LATCHED_QOS)
         self.create_subscription(Odometry, topics.ODOM, self.on_odom, SENSOR_QOS)
         self.create_subscription(PoseStamped, topics.CAMERA_POSE, self.on_camera_pose, SENSOR_QOS)
-        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_info, SENSOR_QOS)
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(Image, topics.DEPTH, self.on_depth, SENSOR_QOS)
         self.camera_pose: np.ndarray | None = None
         self._timers = []
@@ -140,24 +138,13 @@ class PlannerNode(RaspvNode):
             T = self.camera_pose
             self.pose = (float(T[0, 3]), float(T[1, 3]), yaw_of(T, 2))
 
-    def on_info(self, msg: CameraInfo) -> None:
-        try:
-            self.intrinsics = camera_info_to_intrinsics(msg)
-        except ValueError as exc:
-            self.warn_throttled("info", f"ignoring camera info: {exc}")
 
     def on_depth(self, msg: Image) -> None:
         p = self.params
         if not p["use_camera_obstacles"] or self.intrinsics is None or self.camera_pose is None:
             return
-        try:
-            depth = depth_from_image(msg)
-        except ImageEncodingError as exc:
-            self.warn_throttled("depth", f"ignoring depth image: {exc}")
-            return
-        if depth.shape != (self.intrinsics.height, self.intrinsics.width):
-            self.warn_throttled("depth-size", f"depth {depth.shape[1]}x{depth.shape[0]} does not match camera info "
-                                              f"{self.intrinsics.width}x{self.intrinsics.height}; ignoring it")
+        depth = self.read_depth(msg)
+        if depth is None:
             return
         pts = obstacle_points(depth, self.intrinsics, self.camera_pose, p["obstacle_min_height"],
                               p["obstacle_max_height"], p["obstacle_range"])

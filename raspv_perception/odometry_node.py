@@ -18,7 +18,7 @@ from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
-from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image, matrix_to_pose,
+from raspv_common.conversions import (ImageEncodingError, depth_from_image, matrix_to_pose,
                                       rgb_from_image)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import SENSOR_QOS
@@ -35,23 +35,17 @@ class OdometryNode(RaspvNode):
                                                         min_overlap=p["min_overlap"]))
         except ValueError as exc:
             raise ConfigurationError(str(exc)) from None
-        self.intrinsics = None
         self.pending: OrderedDict[int, dict] = OrderedDict()     # stamp [ns] → {"color": msg, "depth": msg}
         self.history: OrderedDict[int, np.ndarray] = OrderedDict()  # stamp [ns] → C0 ← C
         self.started: float | None = None
         self.publishing = not p["gravity_from_floor"]
         self.pub_pose = self.create_publisher(PoseStamped, topics.CAMERA_POSE, SENSOR_QOS)
-        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_info, SENSOR_QOS)
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(Image, topics.COLOR, lambda m: self.on_image("color", m), SENSOR_QOS)
         self.create_subscription(Image, topics.DEPTH, lambda m: self.on_image("depth", m), SENSOR_QOS)
         if p["gravity_from_floor"]:
             self.create_subscription(SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene, SENSOR_QOS)
 
-    def on_info(self, msg: CameraInfo) -> None:
-        try:
-            self.intrinsics = camera_info_to_intrinsics(msg)
-        except ValueError as exc:
-            self.warn_throttled("info", f"ignoring camera info: {exc}")
 
     @staticmethod
     def _key(msg) -> int:

@@ -16,8 +16,7 @@ from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
-from raspv_common.conversions import (ImageEncodingError, array_to_image, camera_info_to_intrinsics, depth_from_image,
-                                      pose_to_matrix, stamp_to_seconds)
+from raspv_common.conversions import (array_to_image, pose_to_matrix, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import SENSOR_QOS
 from raspv_perception.scene_config import SceneConfig
@@ -38,12 +37,11 @@ class SceneNode(RaspvNode):
             self.perception = ScenePerception(config_from_params(self.params))
         except ValueError as exc:
             raise ConfigurationError(str(exc)) from None
-        self.intrinsics = None
         self.poses: deque[tuple[float, np.ndarray]] = deque(maxlen=50)
         self.frames = 0
         self.pub_structure = self.create_publisher(SceneStructureMsg, topics.SCENE_STRUCTURE, SENSOR_QOS)
         self.pub_labels = self.create_publisher(Image, topics.SCENE_LABELS, SENSOR_QOS)
-        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_info, SENSOR_QOS)
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(PoseStamped, topics.CAMERA_POSE, self.on_pose, SENSOR_QOS)
         self.create_subscription(Image, topics.DEPTH, self.on_depth, SENSOR_QOS)
 
@@ -55,11 +53,6 @@ class SceneNode(RaspvNode):
         self.perception.set_config(config)
         return None
 
-    def on_info(self, msg: CameraInfo) -> None:
-        try:
-            self.intrinsics = camera_info_to_intrinsics(msg)
-        except ValueError as exc:
-            self.warn_throttled("info", f"ignoring camera info: {exc}")
 
     def on_pose(self, msg: PoseStamped) -> None:
         T = pose_to_matrix(msg.pose)
@@ -78,16 +71,10 @@ class SceneNode(RaspvNode):
         if self.intrinsics is None:
             self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
             return
-        try:
-            depth = depth_from_image(msg)
-        except ImageEncodingError as exc:
-            self.warn_throttled("depth", f"ignoring depth image: {exc}")
+        depth = self.read_depth(msg)
+        if depth is None:
             return
         K = self.intrinsics
-        if depth.shape != (K.height, K.width):
-            self.warn_throttled("depth-size", f"depth {depth.shape[1]}x{depth.shape[0]} does not match camera info "
-                                              f"{K.width}x{K.height}; ignoring it")
-            return
         result = self.perception.process(depth, K, self._prior(stamp_to_seconds(msg.header.stamp)))
         self.pub_structure.publish(structure_to_msg(result.structure, msg.header))
         if self.params["publish_labels"]:

@@ -84,7 +84,6 @@ def _test_frames():
 
 def part_ours(args) -> dict:
     import cv2
-    import numpy as np
     import psutil
 
     from raspv_spv.config import spv_config

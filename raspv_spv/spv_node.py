@@ -29,7 +29,7 @@ from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
-from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image, image_to_array,
+from raspv_common.conversions import (ImageEncodingError, depth_from_image, image_to_array,
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
@@ -74,7 +74,6 @@ class SpvNode(RaspvNode):
         self.color = self.depth = self.pose = None
         self.scene = self.scene_labels = None          # scene perception (scene modes)
         self.extras: dict[str, object] = {}             # further inputs by name (e.g. nav_path)
-        self.intrinsics = None
         self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0}
         self._waiting_since: float | None = None
         self._levels: tuple[int, np.ndarray, float] | None = None   # (map_id, levels, source stamp)
@@ -87,7 +86,7 @@ class SpvNode(RaspvNode):
         self.pub_image = self.create_publisher(Image, topics.SPV_IMAGE, SENSOR_QOS)
         self.pub_frame = self.create_publisher(PhospheneFrame, topics.SPV_FRAME, SENSOR_QOS)
         self.pub_map = self.create_publisher(PhospheneMap, topics.SPV_MAP, LATCHED_QOS)
-        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_info, SENSOR_QOS,
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS,
                                  callback_group=self._input_group)
         self._subs: dict[str, object] = {}
         self._update_subscriptions(self.sim.needs)
@@ -150,11 +149,6 @@ class SpvNode(RaspvNode):
                                          "does not subscribe to; its phosphenes stay off")
 
     # -- inputs -------------------------------------------------------------------------------
-    def on_info(self, msg: CameraInfo) -> None:
-        try:
-            self.intrinsics = camera_info_to_intrinsics(msg)
-        except ValueError as exc:
-            self.warn_throttled("info", f"ignoring camera info: {exc}")
 
     def on_color(self, msg: Image) -> None:
         try:
