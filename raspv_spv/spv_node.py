@@ -24,7 +24,6 @@ import time
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rclpy._rclpy_pybind11 import RCLError
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
@@ -68,8 +67,6 @@ class SpvNode(RaspvNode):
             raise ConfigurationError(_reason(exc)) from None
         self.map_id = 1
         self._sim_lock = threading.Lock()
-        self._input_group = MutuallyExclusiveCallbackGroup()
-        self._display_group = MutuallyExclusiveCallbackGroup()
         # latest inputs and the levels computed from them
         self.color = self.depth = self.pose = None
         self.scene = self.scene_labels = None          # scene perception (scene modes)
@@ -86,8 +83,7 @@ class SpvNode(RaspvNode):
         self.pub_image = self.create_publisher(Image, topics.SPV_IMAGE, SENSOR_QOS)
         self.pub_frame = self.create_publisher(PhospheneFrame, topics.SPV_FRAME, SENSOR_QOS)
         self.pub_map = self.create_publisher(PhospheneMap, topics.SPV_MAP, LATCHED_QOS)
-        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS,
-                                 callback_group=self._input_group)
+        self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self._subs: dict[str, object] = {}
         self._update_subscriptions(self.sim.needs)
         # The display loop is a thread of its own sleeping to absolute deadlines, not an executor
@@ -96,7 +92,7 @@ class SpvNode(RaspvNode):
         self._stop_display = threading.Event()
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
         self._display_thread.start()
-        self.create_timer(REPORT_PERIOD_S, self.report, callback_group=self._display_group)
+        self.create_timer(REPORT_PERIOD_S, self.report)
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
 
@@ -139,8 +135,7 @@ class SpvNode(RaspvNode):
                   "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
-                self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS,
-                                                            callback_group=self._input_group)
+                self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
         unsupported = sorted(set(needs) - set(wanted) - {"camera"})
