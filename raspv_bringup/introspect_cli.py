@@ -16,7 +16,8 @@ from raspv_bringup.middleware import apply_middleware_defaults
 
 def add_arguments_topics(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-t", "--types", action="store_true", help="show message types")
-    parser.add_argument("--wait", type=float, default=3.0, metavar="S", help="max seconds for discovery (default 3)")
+    parser.add_argument("--wait", type=float, default=5.0, metavar="S",
+                        help="max seconds for discovery when no other node shows up (default 5)")
 
 
 def add_arguments_hz(parser: argparse.ArgumentParser) -> None:

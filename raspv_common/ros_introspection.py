@@ -68,19 +68,25 @@ def wait_for_topic_type(node: Node, topic: str, timeout_s: float) -> str | None:
         time.sleep(0.05)
 
 
-def settled_topics(node: Node, max_wait_s: float = 3.0, quiet_s: float = 0.7,
-                   min_wait_s: float = 1.5) -> list[tuple[str, list[str]]]:
-    """Topic names and types once discovery has stopped changing for ``quiet_s`` seconds,
-    after at least ``min_wait_s`` (discovery takes 0–1.7 s here), at most ``max_wait_s``."""
+def other_nodes(node: Node) -> list[str]:
+    """Names of the discovered nodes other than ``node`` itself."""
+    me = (node.get_name(), node.get_namespace())
+    return [n for n, ns in node.get_node_names_and_namespaces() if (n, ns) != me]
+
+
+def settled_topics(node: Node, max_wait_s: float = 5.0, quiet_s: float = 0.7) -> list[tuple[str, list[str]]]:
+    """Topic names and types once another node has been discovered and the list has not changed
+    for ``quiet_s`` seconds (discovery takes 0–1.7 s here, more under load), at most
+    ``max_wait_s``. Our own topics appear at once, so they alone never count as settled."""
     start = time.monotonic()
-    deadline = start + max(max_wait_s, min_wait_s)
+    deadline = start + max_wait_s
     last = None
     last_change = start
     while time.monotonic() < deadline:
         now = sorted((n, sorted(t)) for n, t in node.get_topic_names_and_types())
         if now != last:
             last, last_change = now, time.monotonic()
-        elif time.monotonic() - last_change >= quiet_s and time.monotonic() - start >= min_wait_s:
+        elif time.monotonic() - last_change >= quiet_s and other_nodes(node):
             break
         time.sleep(0.05)
     return last or []
