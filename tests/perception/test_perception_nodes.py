@@ -26,13 +26,16 @@ def test_scene_node_on_the_synthetic_source(graph, probe):
                                        "eye_height": 1.5, "pitch_down_deg": 20.0}}})
     structures = probe.subscribe(topics.SCENE_STRUCTURE, SceneStructureMsg)
     labels = probe.subscribe(topics.SCENE_LABELS, Image)
-    msg = structures.wait(1, timeout=90)[0]
+    def stamp(m):
+        return m.header.stamp.sec, m.header.stamp.nanosec
+
+    # the two subscriptions match at different moments: take a depth frame both have seen
+    msg = structures.wait(1, timeout=90, predicate=lambda m: stamp(m) in {stamp(x) for x in labels.messages})[0]
     s = structure_from_msg(msg)
     assert s.floor_found
     assert s.camera_height == pytest.approx(1.5, abs=0.02)
     assert s.camera_pitch_deg == pytest.approx(20.0, abs=0.5)
-    stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec)
-    lab = labels.wait(1, timeout=30, predicate=lambda m: (m.header.stamp.sec, m.header.stamp.nanosec) == stamp)[0]
+    lab = next(x for x in labels.messages if stamp(x) == stamp(msg))
     arr = image_to_array(lab)
     assert lab.encoding == "mono8" and arr.shape == (240, 320)
     assert (arr[200:] == L.FLOOR).mean() > 0.5          # the floor in front of the camera
