@@ -78,8 +78,9 @@ def test_frames_head_and_teleop_through_the_bridge(graph, probe):
     heads.wait(1, timeout=30, predicate=lambda m: rounded(m) == sent[-1])     # the newest head pose arrives
     got = list(heads.messages)
     assert all(m.header.frame_id == "base" for m in got)
-    # /head/orientation is keep-last-1 (only the newest pose matters), so a burst may skip some
-    assert {rounded(m) for m in got} <= set(sent) and len(got) >= len(sent) // 2
+    # /head/orientation is keep-last-1 (only the newest pose matters), so a loaded machine may skip
+    # many; what must hold is that only sent poses arrive, as a stream, ending with the newest
+    assert {rounded(m) for m in got} <= set(sent) and len(got) >= 2
 
     async def drive():
         ws = await controller(url)

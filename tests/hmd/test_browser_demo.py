@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import time
 
 import cv2
 import numpy as np
@@ -48,7 +49,9 @@ def test_walk_and_look_around_from_the_browser(graph, probe):
             page = context.new_page()
             page.goto(url + "?overlay=0")
             page.wait_for_function("() => window.raspvClient.framesShown > 10", timeout=90_000)
-            before = view(page)
+            # the first frames may be dark (spv renders before the simulator's first image reaches it
+            # on a loaded machine), so wait for phosphenes to light up rather than take frame 10
+            before = wait_for_view(page, lambda v: (v > 60).mean() > 0.01, timeout=60)
             assert (before > 60).mean() > 0.01                          # phosphenes on the page
 
             page.keyboard.down("ArrowUp")
@@ -70,6 +73,16 @@ def test_walk_and_look_around_from_the_browser(graph, probe):
             assert np.abs(after - before).mean() > 2.0                    # the view changed
         finally:
             context.close()
+
+
+def wait_for_view(page, condition, timeout: float) -> np.ndarray:
+    """Screenshots until `condition(view)` holds or `timeout` s pass; returns the last view."""
+    deadline = time.monotonic() + timeout
+    while True:
+        v = view(page)
+        if condition(v) or time.monotonic() > deadline:
+            return v
+        page.wait_for_timeout(200)
 
 
 def head_yaw(msg: PoseStamped) -> float:
