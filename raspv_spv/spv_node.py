@@ -34,7 +34,9 @@ from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
+from raspv_msgs.msg import StairDetection
 from raspv_perception.scene_msg import structure_from_msg
+from raspv_perception.stairs_msg import staircase_from_msg
 from raspv_spv.config import config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
@@ -132,7 +134,8 @@ class SpvNode(RaspvNode):
                   "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose),
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
                   "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels),
-                  "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path)}
+                  "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path),
+                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
                 self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
@@ -176,6 +179,11 @@ class SpvNode(RaspvNode):
             return
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
+
+    def on_stairs(self, msg: StairDetection) -> None:
+        """The newest staircase detection (camera frame of its depth image) for the stairs overlay."""
+        stair = staircase_from_msg(msg)
+        self.extras["stairs"] = [] if stair is None else [stair]
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)

@@ -12,16 +12,12 @@ Input: ``extras["nav_path"]``, an (N, 2) or (N, 3) array of world points (z = fl
 """
 from __future__ import annotations
 
-import math
-
-import cv2
 import numpy as np
 
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.modes.base import Overlay
+from raspv_spv.modes.projected_lines import phosphenes_on_lines, visible_in_depth
 from raspv_spv.sampling import Sampling
-
-MASK_SCALE = 0.25           # the line mask is drawn at a quarter of the phosphene image resolution
 
 
 def densify(path: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -60,42 +56,8 @@ class PathOverlay(Overlay):
         pose = np.asarray(inputs.camera_pose, dtype=float)
         R, t = pose[:3, :3], pose[:3, 3]
         pc = (pts - t) @ R                        # world → camera: Rᵀ (p − t)
-        cam = inputs.camera
-        u, v, z = cam.project(pc)
-        ok = (z > 0.05) & cam.contains(u, v)
-        depth = inputs.depth
-        if depth.shape != (cam.height, cam.width):
-            cam = cam.scaled(depth.shape[1], depth.shape[0])
-            u, v, _ = cam.project(pc)
-            ok &= cam.contains(u, v)
-        cols = np.clip(np.rint(np.nan_to_num(u)), 0, depth.shape[1] - 1).astype(np.intp)
-        rows = np.clip(np.rint(np.nan_to_num(v)), 0, depth.shape[0] - 1).astype(np.intp)
-        d = depth[rows, cols]
-        ok &= ~(np.isfinite(d) & (z > d + self.settings["occlusion_tolerance"]))
-        pc[~ok] = np.nan                          # NaN rows split the path into visible runs
-        return pc
+        pc[~visible_in_depth(pc, inputs, self.settings["occlusion_tolerance"])] = np.nan
+        return pc                                 # NaN rows split the path into visible runs
 
     def highlight(self, inputs: FrameInputs, sampling: Sampling) -> np.ndarray:
-        pc = self.visible_points(inputs)
-        out = np.zeros(sampling.count, dtype=bool)
-        if not np.isfinite(pc).any():
-            return out
-        K = sampling.K_P
-        with np.errstate(invalid="ignore", divide="ignore"):
-            px = np.stack([K[0, 0] * pc[:, 0] / pc[:, 2] + K[0, 2], K[1, 1] * pc[:, 1] / pc[:, 2] + K[1, 2]], axis=1)
-        extent = sampling.centres.max(axis=0) + sampling.centres.min(axis=0)   # ≈ image size
-        shape = (int(extent[1] * MASK_SCALE) + 2, int(extent[0] * MASK_SCALE) + 2)
-        mask = np.zeros(shape, np.uint8)
-        width_px = 2.0 * K[0, 0] * math.tan(math.radians(self.settings["path_width_deg"]) / 2.0)
-        thickness = max(1, int(round(width_px * MASK_SCALE)))
-        finite = np.isfinite(px).all(axis=1)
-        # consecutive visible points form runs; each run is one polyline
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], finite.astype(np.int8), [0]])))
-        runs = [np.round(px[a:b] * MASK_SCALE * 16).astype(np.int32) for a, b in zip(edges[::2], edges[1::2])]
-        cv2.polylines(mask, runs, False, 255, thickness, lineType=cv2.LINE_8, shift=4)
-        for r in runs:                        # single visible points still mark their phosphene
-            if len(r) == 1:
-                cv2.circle(mask, tuple(int(x) for x in r[0]), max(1, thickness // 2) * 16, 255, -1, shift=4)
-        cx = np.clip(np.rint(sampling.centres[:, 0] * MASK_SCALE).astype(np.intp), 0, shape[1] - 1)
-        cy = np.clip(np.rint(sampling.centres[:, 1] * MASK_SCALE).astype(np.intp), 0, shape[0] - 1)
-        return mask[cy, cx] > 0
+        return phosphenes_on_lines(self.visible_points(inputs), sampling, self.settings["path_width_deg"])
