@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from fig9_apartment import CAMERA, DEVICE, rgb_with_phosphenes, square  # noqa: E402
+from fig9_apartment import CAMERA, DEVICE, rgb_with_phosphenes  # noqa: E402
 from raspv_perception.scene_perception import ScenePerception  # noqa: E402
 from raspv_perception.stairs import StairDetector  # noqa: E402
 from raspv_sim.avatar import head_quaternion  # noqa: E402
