@@ -178,6 +178,11 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     except (rclpy.exceptions.ParameterException, rclpy.exceptions.InvalidParameterTypeException) as exc:
         print(f"[{_node_label(node, args)}] parameter error: {exc}", file=sys.stderr, flush=True)
         code = 2
+    except RuntimeError:
+        # SIGINT/SIGTERM shut the context down while the executor was taking a message (rclpy
+        # then fails inside take_message): that is a clean stop, not a crash
+        if rclpy.ok():
+            raise
     finally:
         if node is not None:
             try:

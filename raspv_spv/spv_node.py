@@ -139,6 +139,8 @@ class SpvNode(RaspvNode):
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
                 self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
+                if name == "stairs":
+                    self.extras.setdefault("stairs", [])     # no staircase known until /stairs says so
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
         unsupported = sorted(set(needs) - set(wanted) - {"camera"})
