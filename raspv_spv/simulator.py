@@ -85,6 +85,14 @@ class PhospheneSimulator:
             out |= o.needs
         return frozenset(out)
 
+    @property
+    def optional_inputs(self) -> frozenset[str]:
+        """Inputs the mode and overlays use when present."""
+        out = set(self.mode.optional_inputs)
+        for o in self.overlays:
+            out |= o.optional_inputs
+        return frozenset(out)
+
     def adopt_state(self, previous: "PhospheneSimulator") -> None:
         """Continue ``previous``'s pulse histories (after a rebuild with the same phosphenes),
         so a run-time change of, say, the mode does not restart the temporal model."""

@@ -129,7 +129,7 @@ class SpvNode(RaspvNode):
 
     def _update_subscriptions(self, needs: frozenset[str]) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional), and only those."""
-        needs = frozenset(needs) | getattr(self.sim.mode, "optional_inputs", frozenset())
+        needs = frozenset(needs) | self.sim.optional_inputs
         wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
                   "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose),
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
@@ -139,8 +139,6 @@ class SpvNode(RaspvNode):
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
                 self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
-                if name == "stairs":
-                    self.extras.setdefault("stairs", [])     # no staircase known until /stairs says so
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
         unsupported = sorted(set(needs) - set(wanted) - {"camera"})

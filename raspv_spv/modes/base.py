@@ -8,9 +8,10 @@ returns new ones: the phosphenes it highlights go to full level, the others are 
 
 Both declare ``needs``: the names of the inputs they read (``color``, ``depth``, ``camera``,
 ``camera_pose``, ``scene``, ``scene_labels`` or a key of ``FrameInputs.extras``). The simulator
-does not call them without those; the node subscribes and warns accordingly. ``defaults``
-lists the settings a mode reads (e.g. ``max_depth``) with their default values; the
-simulator passes the configured values (the spv node's parameters) over them.
+does not call them without those; the node subscribes and warns accordingly. Inputs they use
+when present but can do without go in ``optional_inputs`` (the node subscribes to them too).
+``defaults`` lists the settings a mode reads (e.g. ``max_depth``) with their default values;
+the simulator passes the configured values (the spv node's parameters) over them.
 """
 from __future__ import annotations
 
@@ -34,6 +35,7 @@ class _Plugin(ABC):
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     needs: ClassVar[frozenset[str]] = frozenset()
+    optional_inputs: ClassVar[frozenset[str]] = frozenset()
     defaults: ClassVar[dict[str, Any]] = {}
 
     def __init__(self, settings: Mapping[str, Any] | None = None) -> None:

@@ -60,6 +60,9 @@ def test_no_staircase_changes_nothing():
     levels = np.random.default_rng(0).integers(0, 8, sampling.count).astype(np.uint8)
     assert not StairsOverlay().highlight(inputs, sampling).any()
     np.testing.assert_array_equal(StairsOverlay().apply(levels, inputs, sampling, 8), levels)
+    # before the first detection arrives there is no "stairs" input at all: the same
+    inputs = FrameInputs(camera=CAM)
+    np.testing.assert_array_equal(StairsOverlay().apply(levels, inputs, sampling, 8), levels)
 
 
 def test_a_staircase_behind_a_wall_is_not_drawn():
