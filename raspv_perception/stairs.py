@@ -8,13 +8,13 @@ after Pérez-Yus et al. (ECCV-W 2014, CVIU 2017).
 
 How it works:
 
-1. **Tread patches.** Every valid sample gets its height above the floor. Treads are the
-   sharp peaks of the height histogram (risers and walls spread over all heights). The samples of
-   each peak are rasterised on the floor plane (``cell`` m) and split into connected pieces; a
-   piece is a tread patch when it covers ``min_step_area`` of floor and is at least
-   ``min_step_depth`` deep in both directions — the strips that walls and risers leave at any
-   height are one cell thin and drop out. This sees the thin slivers a descending stair shows
-   from its top, which whole-frame plane segmentation merges or drops.
+1. **Tread patches.** A sample is flat when the step to its image-row neighbour runs along the
+   floor without rising (``max_slope``); risers and walls rise in place. Flat samples' heights
+   above the floor pile up at the treads: each peak of the height histogram is rasterised on
+   the floor plane (``cell`` m), closed over sampling gaps, opened by ``min_step_depth`` so the
+   thin strips walls and risers still leave drop out, and split into connected pieces of at
+   least ``min_step_area``. This sees the thin slivers a descending stair shows from its top,
+   which whole-frame plane segmentation merges or drops.
 2. **Levels.** Patches whose heights differ by ≤ ``level_merge`` and that touch (within
    ``connect_distance``) are one level. A chain starts at a level ``h_min``…``h_max`` above
    (ascending) or below (descending) the floor and next to visible floor, and climbs (or
@@ -159,9 +159,11 @@ class StairDetector:
         sel = np.abs(height) <= tol
         if sel.sum() < 10:
             return None
+        # one int per cell and a 1-D unique: 2 ms faster per frame than voxel_downsample, which
+        # also computes the centroids and the inverse map this test does not need
         cell = self.config.cell
         ij = np.floor(xz[sel] / cell).astype(np.int64)
-        key = np.unique((ij[:, 0] << 32) + (ij[:, 1] & 0xFFFFFFFF))      # one int per cell: 1-D unique is fast
+        key = np.unique((ij[:, 0] << 32) + (ij[:, 1] & 0xFFFFFFFF))
         i, j = key >> 32, (key & 0xFFFFFFFF).astype(np.int32).astype(np.int64)
         return (np.stack([i, j], axis=1) + 0.5) * cell
 
@@ -253,7 +255,7 @@ class StairDetector:
 
     def _model(self, chain: list[_Patch], direction: StairDirection, structure: SceneStructure) -> Staircase | None:
         cfg = self.config
-        u, w = self._axes(chain, structure)
+        w = self._walking_direction(chain, structure)
         if (chain[-1].cells @ w).mean() < (chain[0].cells @ w).mean():
             w = -w                                         # walking direction: first step → last
         x_s = np.array([w[1], -w[0]])                      # S x = y × z with y down, as (x, z) in F
@@ -309,12 +311,14 @@ class StairDetector:
         distance = _point_segment_distance(np.zeros(2), a[0], a[1])
         return Staircase(direction, C_T_S, riser, tread, width, distance, steps)
 
-    def _axes(self, chain: list[_Patch], structure: SceneStructure) -> tuple[np.ndarray, np.ndarray]:
-        """(u along the step edges, w walking direction), unit (x, z) vectors in F."""
+    def _walking_direction(self, chain: list[_Patch], structure: SceneStructure) -> np.ndarray:
+        """Unit (x, z) vector in F across the step edges (sign not yet chosen): perpendicular to
+        the edge direction u that boxes the steps tighter, the largest step's major axis or a
+        Manhattan axis."""
         pts = np.concatenate([p.cells for p in chain])
         biggest = max(chain, key=lambda p: p.area).cells
         cov = np.cov((biggest - biggest.mean(axis=0)).T)
-        vals, vecs = np.linalg.eigh(cov)
+        _, vecs = np.linalg.eigh(cov)
         candidates = [vecs[:, 1]]                          # the major axis runs along the edges
         if structure.manhattan_found:
             R = structure.camera_to_floor[:3, :3]
@@ -331,8 +335,7 @@ class StairDetector:
 
         u = min(candidates, key=box_area)
         u = u / np.linalg.norm(u)
-        w = np.array([-u[1], u[0]])
-        return u, w
+        return np.array([-u[1], u[0]])
 
 
 def _flat_samples(grid_f: np.ndarray, max_slope: float, max_gap: float) -> np.ndarray:

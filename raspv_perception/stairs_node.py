@@ -38,7 +38,6 @@ class StairsNode(RaspvNode):
         except ValueError as exc:
             raise ConfigurationError(str(exc)) from None
         self.depths: OrderedDict[tuple[int, int], np.ndarray] = OrderedDict()
-        self.frames = 0
         self.detections = 0
         self.pub = self.create_publisher(StairDetection, topics.STAIRS, SENSOR_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
@@ -72,7 +71,6 @@ class StairsNode(RaspvNode):
             return
         stair = self.detector.detect(depth, self.intrinsics, structure_from_msg(msg))
         self.pub.publish(staircase_to_msg(stair, msg.header))
-        self.frames += 1
         if stair is not None:
             self.detections += 1
             if self.detections == 1:
