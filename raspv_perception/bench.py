@@ -118,16 +118,13 @@ def _time_stairs(n: int) -> None:
     staircase and a look down its descending one, 640×480."""
     from raspv_perception.scene_perception import ScenePerception
     from raspv_perception.stairs import StairDetector
-    from raspv_sim.avatar import head_quaternion
     from raspv_sim.simulator import SimConfig, Simulation
 
     frames = []
     with Simulation("stairs", SimConfig(width=640, height=480)) as sim:
         for i in range(n):
             x, y, pitch = (5.8, 1.0 + 2.5 * i / n, 25.0) if i % 2 == 0 else (10.2, 3.0 + 1.5 * i / n, 45.0)
-            sim.set_head(head_quaternion(0.0, math.radians(pitch), 0.0))
-            sim.avatar.teleport(x, y, math.radians(90.0))
-            f = sim.render()
+            f = sim.render_from(x, y, math.radians(90.0), head_pitch=math.radians(pitch))
             frames.append((f.depth, f.intrinsics, f.world_from_camera))
     perception, detector = ScenePerception(), StairDetector()
     times, found = [], 0

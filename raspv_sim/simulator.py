@@ -16,7 +16,7 @@ import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_sim.avatar import Avatar, AvatarConfig, head_angles
+from raspv_sim.avatar import Avatar, AvatarConfig, head_angles, head_quaternion
 from raspv_sim.collision_events import CollisionEvent, CollisionMonitor, Touch
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
 from raspv_sim.experiment_log import ExperimentLog, TrajectorySample
@@ -184,6 +184,15 @@ class Simulation:
         if self.depth_model is not None:
             depth = self.depth_model.apply(depth, raw.rgb, self.world.specular_lut[body])
         return SimFrame(self.t, raw.rgb, depth, labels, T, self.camera.intrinsics)
+
+    def render_from(self, x: float, y: float, yaw: float, head_roll: float = 0.0, head_pitch: float = 0.0,
+                    head_yaw: float = 0.0) -> SimFrame:
+        """Put the avatar at (x, y) [m, world] facing ``yaw`` [rad], turn its head by
+        roll/pitch/yaw [rad] relative to the base (pitch > 0 looks down), and render that view
+        (no time passes, no collision check): views for figures, tests and replayed logs."""
+        self.avatar.teleport(x, y, yaw)
+        self.set_head(head_quaternion(head_roll, head_pitch, head_yaw))
+        return self.render()
 
     def finish_log(self, plot: bool = True) -> tuple[dict, Path | None]:
         """End the log: last trajectory sample, ``summary.json`` and (``plot``) the top-down

@@ -15,7 +15,6 @@ from raspv_perception.scene_structure import SceneStructure
 from raspv_perception.stair_model import StairDirection
 from raspv_perception.stairs import StairConfig, StairDetector
 from raspv_perception.stairs_msg import staircase_from_msg, staircase_to_msg
-from raspv_sim.avatar import head_quaternion
 from raspv_sim.simulator import SimConfig, Simulation
 
 # name: (avatar x, y [m], yaw [deg], head pitch [deg, down]) in the stairs world
@@ -31,9 +30,7 @@ def views():
     out = {}
     with Simulation("stairs", SimConfig(width=640, height=480)) as sim:
         for name, (x, y, yaw, pitch) in VIEWS.items():
-            sim.set_head(head_quaternion(0.0, math.radians(pitch), 0.0))
-            sim.avatar.teleport(x, y, math.radians(yaw))
-            f = sim.render()
+            f = sim.render_from(x, y, math.radians(yaw), head_pitch=math.radians(pitch))
             s = ScenePerception().process(f.depth, f.intrinsics, f.world_from_camera).structure
             out[name] = (f.depth, f.intrinsics, f.world_from_camera, s)
     return out

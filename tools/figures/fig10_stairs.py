@@ -30,7 +30,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fig9_apartment import CAMERA, DEVICE, rgb_with_phosphenes  # noqa: E402
 from raspv_perception.scene_perception import ScenePerception  # noqa: E402
 from raspv_perception.stairs import StairDetector  # noqa: E402
-from raspv_sim.avatar import head_quaternion  # noqa: E402
 from raspv_sim.simulator import Simulation  # noqa: E402
 from raspv_spv.config import spv_config  # noqa: E402
 from raspv_spv.frame_inputs import FrameInputs  # noqa: E402
@@ -48,9 +47,7 @@ def render_views():
     out = []
     with Simulation("stairs", CAMERA) as sim:
         for title, x, y, yaw, pitch in VIEWS:
-            sim.set_head(head_quaternion(0.0, math.radians(pitch), 0.0))
-            sim.avatar.teleport(x, y, math.radians(yaw))
-            frame = sim.render()
+            frame = sim.render_from(x, y, math.radians(yaw), head_pitch=math.radians(pitch))
             result = ScenePerception().process(frame.depth, frame.intrinsics, frame.world_from_camera)
             stair = StairDetector().detect(frame.depth, frame.intrinsics, result.structure)
             out.append((title, frame, result, stair))

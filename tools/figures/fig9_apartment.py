@@ -77,9 +77,8 @@ def replay(run_dir: Path, times: list[float] | None):
     kept = []
     with Simulation(world, CAMERA) as sim:
         for i in range(max(picks) + 1):
-            sim.avatar.teleport(traj["x"][i], traj["y"][i], traj["yaw"][i])
-            sim.set_head(head_quaternion(traj["head_roll"][i], traj["head_pitch"][i], traj["head_yaw"][i]))
-            frame = sim.render()
+            frame = sim.render_from(traj["x"][i], traj["y"][i], traj["yaw"][i],
+                                    traj["head_roll"][i], traj["head_pitch"][i], traj["head_yaw"][i])
             result = perception.process(frame.depth, frame.intrinsics, frame.world_from_camera)
             if i in picks:
                 kept.append((float(t[i]), frame, result))
