@@ -60,12 +60,12 @@ def wireframe_on_rgb(frame, stair) -> np.ndarray:
         return img
     K = frame.intrinsics
     x0 = (K.width - K.height) // 2                                  # rgb_with_phosphenes crops the centre
-    for a, b in stair.segments():
-        if a[2] <= 0.05 or b[2] <= 0.05:
-            continue
-        pa = (int(K.fx * a[0] / a[2] + K.cx) - x0, int(K.fy * a[1] / a[2] + K.cy))
-        pb = (int(K.fx * b[0] / b[2] + K.cx) - x0, int(K.fy * b[1] / b[2] + K.cy))
-        cv2.line(img, pa, pb, (255, 60, 200), 2, lineType=cv2.LINE_AA)
+    segs = stair.segments()
+    u, v, z = K.project(segs.reshape(-1, 3))
+    ends = np.stack([u - x0, v], axis=1).astype(int).reshape(-1, 2, 2)
+    for (pa, pb), depth in zip(ends, z.reshape(-1, 2)):
+        if (depth > 0.05).all():
+            cv2.line(img, tuple(int(c) for c in pa), tuple(int(c) for c in pb), (255, 60, 200), 2, lineType=cv2.LINE_AA)
     return img
 
 
