@@ -4,8 +4,9 @@ dimmed (:meth:`Overlay.apply`), over any representation mode.
 
 Input (optional): ``extras["stairs"]``, a list of :class:`~raspv_perception.stair_model.Staircase`
 in the camera frame C of the depth frame they were detected in (the spv node fills it from
-``/stairs``; an empty list when none is detected). Without it nothing is highlighted. Wireframe points hidden behind the depth
-image (e.g. the far edges of a descending stair's treads) are not drawn.
+``/stairs``; an empty list when none is detected). Without it nothing is highlighted.
+Wireframe points hidden behind the depth image (e.g. the far edges of a descending stair's
+treads) are not drawn.
 """
 from __future__ import annotations
 
@@ -32,11 +33,8 @@ class StairsOverlay(Overlay):
         segments = [s.segments() for s in inputs.extras.get("stairs") or []]
         if not segments:
             return np.empty((0, 3))
-        pc = densify_segments(np.concatenate(segments), 0.03)
-        finite = np.isfinite(pc).all(axis=1)
-        ok = np.zeros(len(pc), dtype=bool)
-        ok[finite] = visible_in_depth(pc[finite], inputs, self.settings["stairs_occlusion_tolerance"])
-        pc[~ok] = np.nan
+        pc = densify_segments(np.concatenate(segments), 0.03)       # NaN rows separate the segments
+        pc[~visible_in_depth(pc, inputs, self.settings["stairs_occlusion_tolerance"])] = np.nan
         return pc
 
     def highlight(self, inputs: FrameInputs, sampling: Sampling) -> np.ndarray:
