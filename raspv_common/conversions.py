@@ -188,8 +188,17 @@ def matrix_to_pose(T: np.ndarray) -> Pose:
     """4×4 matrix parent ← child → ``geometry_msgs/Pose``."""
     T = np.asarray(T, dtype=float)
     x, y, z, w = matrix_to_quaternion(T[:3, :3])
-    return Pose(position=Point(x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3])),
-                orientation=Quaternion(x=x, y=y, z=z, w=w))
+    return Pose(position=array_to_point(T[:3, 3]), orientation=Quaternion(x=x, y=y, z=z, w=w))
+
+
+def array_to_point(p) -> Point:
+    """(3,) array-like → ``geometry_msgs/Point``."""
+    return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
+
+
+def xyz_to_array(p) -> np.ndarray:
+    """Any message with x, y, z (Point, Vector3) → (3,) float64 array."""
+    return np.array([p.x, p.y, p.z], dtype=np.float64)
 
 
 def stamp_to_seconds(stamp: Time) -> float:

@@ -18,17 +18,9 @@ from raspv_msgs.msg import Plane as PlaneMsg
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from std_msgs.msg import Header
 
-from raspv_common.conversions import matrix_to_pose, pose_to_matrix
+from raspv_common.conversions import array_to_point, matrix_to_pose, pose_to_matrix, xyz_to_array
 from raspv_perception.scene_structure import (GravitySource, ObstacleCluster, Plane, PlaneType,
                                               SceneStructure)
-
-
-def _point(p) -> Point:
-    return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
-
-
-def _xyz(p) -> np.ndarray:
-    return np.array([p.x, p.y, p.z], dtype=np.float64)
 
 
 def _floats(values, n: int) -> list[float]:
@@ -58,12 +50,12 @@ def structure_to_msg(s: SceneStructure, header: Header | None = None) -> SceneSt
     msg.manhattan_x = Vector3(x=float(mx[0]), y=float(mx[1]), z=float(mx[2]))
     msg.manhattan_z = Vector3(x=float(mz[0]), y=float(mz[1]), z=float(mz[2]))
     for p in s.planes:
-        msg.planes.append(PlaneMsg(type=int(p.type), coefficients=_floats(p.coefficients, 4), centroid=_point(p.centroid),
+        msg.planes.append(PlaneMsg(type=int(p.type), coefficients=_floats(p.coefficients, 4), centroid=array_to_point(p.centroid),
                                    area=float(p.area), height=float(p.height), num_points=int(p.num_points),
-                                   hull=[_point(q) for q in np.asarray(p.hull).reshape(-1, 3)]))
+                                   hull=[array_to_point(q) for q in np.asarray(p.hull).reshape(-1, 3)]))
     for o in s.obstacles:
-        msg.obstacles.append(ObstacleClusterMsg(centroid=_point(o.centroid), min_floor=_point(o.min_floor),
-                                                max_floor=_point(o.max_floor), height=float(o.height),
+        msg.obstacles.append(ObstacleClusterMsg(centroid=array_to_point(o.centroid), min_floor=array_to_point(o.min_floor),
+                                                max_floor=array_to_point(o.max_floor), height=float(o.height),
                                                 distance=float(o.distance), num_points=int(o.num_points)))
     msg.free_floor = [Point(x=float(x), y=0.0, z=float(z)) for x, z in np.asarray(s.free_floor).reshape(-1, 2)]
     msg.processing_ms = float(s.processing_ms)
@@ -85,14 +77,14 @@ def structure_from_msg(msg: SceneStructureMsg) -> SceneStructure:
         s.gravity_source = GravitySource.FLOOR
     s.manhattan_found = bool(msg.manhattan_found)
     if s.manhattan_found:
-        s.manhattan_x = _xyz(msg.manhattan_x)
-        s.manhattan_z = _xyz(msg.manhattan_z)
+        s.manhattan_x = xyz_to_array(msg.manhattan_x)
+        s.manhattan_z = xyz_to_array(msg.manhattan_z)
     for p in msg.planes:
         hull = np.array([[q.x, q.y, q.z] for q in p.hull], dtype=np.float64).reshape(-1, 3)
-        s.planes.append(Plane(PlaneType(p.type), np.array(p.coefficients, dtype=np.float64), _xyz(p.centroid),
+        s.planes.append(Plane(PlaneType(p.type), np.array(p.coefficients, dtype=np.float64), xyz_to_array(p.centroid),
                               float(p.area), float(p.height), int(p.num_points), hull))
     for o in msg.obstacles:
-        s.obstacles.append(ObstacleCluster(_xyz(o.centroid), _xyz(o.min_floor), _xyz(o.max_floor), float(o.height),
+        s.obstacles.append(ObstacleCluster(xyz_to_array(o.centroid), xyz_to_array(o.min_floor), xyz_to_array(o.max_floor), float(o.height),
                                            float(o.distance), int(o.num_points)))
     s.free_floor = np.array([[q.x, q.z] for q in msg.free_floor], dtype=np.float64).reshape(-1, 2)
     s.processing_ms = float(msg.processing_ms)

@@ -4,12 +4,11 @@ not in the message and comes back True."""
 from __future__ import annotations
 
 import numpy as np
-from geometry_msgs.msg import Point
 from raspv_msgs.msg import StairDetection
 from raspv_msgs.msg import Step as StepMsg
 from std_msgs.msg import Header
 
-from raspv_common.conversions import matrix_to_pose, pose_to_matrix
+from raspv_common.conversions import array_to_point, matrix_to_pose, pose_to_matrix, xyz_to_array
 from raspv_perception.stair_model import Staircase, StairDirection, StairStep
 
 
@@ -23,7 +22,7 @@ def staircase_to_msg(stair: Staircase | None, header: Header | None = None) -> S
     msg.riser, msg.tread, msg.width, msg.distance = (float(stair.riser), float(stair.tread), float(stair.width),
                                                      float(stair.distance))
     msg.steps = [StepMsg(index=s.index, height=float(s.height), depth=float(s.depth), width=float(s.width),
-                         tread_corners=[Point(x=float(c[0]), y=float(c[1]), z=float(c[2])) for c in s.tread_corners])
+                         tread_corners=[array_to_point(c) for c in s.tread_corners])
                  for s in stair.steps]
     return msg
 
@@ -33,7 +32,7 @@ def staircase_from_msg(msg: StairDetection) -> Staircase | None:
     if not msg.detected:
         return None
     steps = [StairStep(int(s.index), float(s.height), float(s.depth), float(s.width),
-                       np.array([[c.x, c.y, c.z] for c in s.tread_corners], dtype=np.float64))
+                       np.array([xyz_to_array(c) for c in s.tread_corners]))
              for s in msg.steps]
     return Staircase(StairDirection(msg.direction), pose_to_matrix(msg.pose), float(msg.riser), float(msg.tread),
                      float(msg.width), float(msg.distance), steps)
