@@ -8,7 +8,7 @@ them. Images are registered to one camera: ``color`` (H, W, 3) uint8 RGB and ``d
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -25,6 +25,7 @@ class FrameInputs:
     ``scene``: the scene-perception core's result for this frame (floor, planes, obstacles), or
     None. ``scene_labels``: (H, W) uint8 per-pixel scene class, registered to ``depth``.
     ``extras``: further inputs by name (stairs, navigation path, segmentation, …).
+    ``cache``: what modes derived from this frame (see :meth:`cached`).
     """
 
     color: np.ndarray | None = None
@@ -35,6 +36,19 @@ class FrameInputs:
     scene: Any = None
     scene_labels: np.ndarray | None = None
     extras: dict[str, Any] = field(default_factory=dict)
+    cache: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def cached(self, key: Any, compute: Callable[[], Any]) -> Any:
+        """``compute()`` once per frame: a mode's per-frame work (an edge image, projected path
+        points) that does not depend on where the phosphenes look. The display samples one
+        frame at every display tick with turned rays (:mod:`raspv_spv.reprojection`), so modes
+        keep the per-tick part to sampling. ``key`` must name everything the result depends
+        on beyond this frame (the mode and its settings)."""
+        try:
+            return self.cache[key]
+        except KeyError:
+            value = self.cache[key] = compute()
+            return value
 
     def has(self, name: str) -> bool:
         """True when input ``name`` is present."""

@@ -4,6 +4,9 @@ The prosthesis field of view (K_P) and the camera's (K_C, from CameraInfo) are d
 ray of phosphene i, r_i = K_P⁻¹·P_i, is projected into the camera; a phosphene whose ray leaves
 the camera image is *outside* and modes leave it off. Camera pixel coordinates follow
 :class:`~raspv_common.intrinsics.CameraIntrinsics` (integer values at pixel centres).
+
+:meth:`Sampling.turned` is the same view from a camera turned by a rotation R (display-time
+reprojection, :mod:`raspv_spv.reprojection`): the rays are R·r_i, sampled at K_C·R·K_P⁻¹·P_i.
 """
 from __future__ import annotations
 
@@ -19,11 +22,15 @@ from raspv_spv.phosphene_map import PhospheneMap
 class Sampling:
     """The phosphenes' view of one camera model.
 
-    ``centres`` (N, 2) P_i in phosphene-image px; ``K_P`` 3×3; ``rays`` (N, 3) with z = 1 and
-    ``unit_rays`` (N, 3) normalised, both in the camera optical frame; ``uv`` (N, 2) continuous
-    camera pixels; ``inside`` (N,) bool; ``rows``/``cols`` (N,) nearest camera pixel (clipped, so
-    always valid indices — mask with ``inside``); ``spacing_camera_px``: phosphene spacing δx
-    seen in camera pixels (for modes that look at a neighbourhood rather than one pixel).
+    ``centres`` (N, 2) P_i in phosphene-image px; ``K_P`` 3×3; ``rays`` (N, 3) and ``unit_rays``
+    (N, 3) normalised, both in the optical frame of the camera that took the image (``rays``
+    have z = 1 unless turned); ``uv`` (N, 2) continuous camera pixels; ``inside`` (N,) bool
+    (False also for rays behind the camera); ``rows``/``cols`` (N,) nearest camera pixel
+    (clipped, so always valid indices — mask with ``inside``); ``spacing_camera_px``: phosphene
+    spacing δx seen in camera pixels (for modes that look at a neighbourhood rather than one
+    pixel); ``capture_from_display``: 3×3 rotation from the displayed view's optical frame to
+    the camera's (None: the same, no reprojection) — overlays projecting camera-frame points
+    with ``K_P`` turn them by its transpose first (:meth:`to_display`).
     """
 
     camera: CameraIntrinsics
@@ -36,21 +43,38 @@ class Sampling:
     rows: np.ndarray = field(repr=False)
     cols: np.ndarray = field(repr=False)
     spacing_camera_px: float = 1.0
+    capture_from_display: np.ndarray | None = field(default=None, repr=False)
     _scaled: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def build(cls, phosphene_map: PhospheneMap, camera: CameraIntrinsics) -> "Sampling":
         rays = phosphene_map.rays()
         unit = rays / np.linalg.norm(rays, axis=1, keepdims=True)
-        u, v, _ = camera.project(rays)
-        inside = camera.contains(u, v)
-        cols = np.clip(np.rint(u), 0, camera.width - 1).astype(np.intp)
-        rows = np.clip(np.rint(v), 0, camera.height - 1).astype(np.intp)
         spacing = phosphene_map.spacing_x * camera.fx / phosphene_map.focal_px
-        arrays = (rays, unit, np.stack([u, v], axis=1), inside, rows, cols)
+        arrays = (rays, unit, *_pixels(camera, rays))
         for a in arrays:
             a.flags.writeable = False
         return cls(camera, phosphene_map.centres, phosphene_map.K, *arrays, spacing_camera_px=float(spacing))
+
+    def turned(self, capture_from_display: np.ndarray) -> "Sampling":
+        """The phosphenes' view when the displayed view is turned by ``capture_from_display``
+        (3×3, R_{C0←C1}: display optical frame C1 → the camera's C0) from the camera that took
+        the image: rays R·r_i, pixels K_C·R·K_P⁻¹·P_i (a homography; exact for a pure rotation).
+        Rays that leave the image or point behind the camera are outside. Call it on an unturned
+        sampling (the simulator's cached one); it costs ~0.05 ms for 1000 phosphenes."""
+        if self.capture_from_display is not None:
+            raise ValueError("turned() needs the unturned sampling")
+        R = np.asarray(capture_from_display, dtype=np.float64)
+        rays = self.rays @ R.T
+        return Sampling(self.camera, self.centres, self.K_P, rays, self.unit_rays @ R.T,
+                        *_pixels(self.camera, rays), spacing_camera_px=self.spacing_camera_px,
+                        capture_from_display=R)
+
+    def to_display(self, points: np.ndarray) -> np.ndarray:
+        """Camera-frame points (M, 3) in the optical frame of the displayed view (Rᵀ·p)."""
+        if self.capture_from_display is None:
+            return points
+        return points @ self.capture_from_display
 
     @property
     def count(self) -> int:
@@ -64,13 +88,9 @@ class Sampling:
         key = (height, width)
         if key not in self._scaled:
             scaled = self.camera.scaled(width, height)
-            rays = self.rays
-            u, v, _ = scaled.project(rays)
-            cols = np.clip(np.rint(u), 0, width - 1).astype(np.intp)
-            rows = np.clip(np.rint(v), 0, height - 1).astype(np.intp)
-            self._scaled[key] = Sampling(scaled, self.centres, self.K_P, rays, self.unit_rays, np.stack([u, v], axis=1),
-                                         scaled.contains(u, v), rows, cols,
-                                         self.spacing_camera_px * width / self.camera.width)
+            self._scaled[key] = Sampling(scaled, self.centres, self.K_P, self.rays, self.unit_rays,
+                                         *_pixels(scaled, self.rays), self.spacing_camera_px * width / self.camera.width,
+                                         self.capture_from_display)
         return self._scaled[key]
 
     def sample(self, image: np.ndarray, fill=0) -> np.ndarray:
@@ -83,3 +103,13 @@ class Sampling:
             values = values.copy()
             values[~s.inside] = fill
         return values
+
+
+def _pixels(camera: CameraIntrinsics, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(uv (N, 2), inside (N,), rows (N,), cols (N,)) of camera-frame ``rays`` in ``camera``;
+    rays with z ≤ 0 get NaN pixels and are outside."""
+    u, v, _ = camera.project(rays)
+    inside = camera.contains(u, v)                      # NaN compares False: behind is outside
+    cols = np.clip(np.rint(np.nan_to_num(u, nan=-1.0)), 0, camera.width - 1).astype(np.intp)
+    rows = np.clip(np.rint(np.nan_to_num(v, nan=-1.0)), 0, camera.height - 1).astype(np.intp)
+    return np.stack([u, v], axis=1), inside, rows, cols

@@ -109,9 +109,11 @@ class PhospheneSimulator:
         return s
 
     # -- per frame ------------------------------------------------------------------------------
-    def levels(self, inputs: FrameInputs) -> np.ndarray:
-        """Levels (N,) uint8 from the mode and overlays. Raises :class:`InputError` when the
-        inputs are malformed or lack something the mode or an overlay needs."""
+    def levels(self, inputs: FrameInputs, capture_from_display: np.ndarray | None = None) -> np.ndarray:
+        """Levels (N,) uint8 from the mode and overlays. ``capture_from_display`` (3×3, display
+        optical frame → the camera's) samples the frame for a view turned from the camera's
+        (display-time reprojection, :meth:`Sampling.turned`). Raises :class:`InputError` when
+        the inputs are malformed or lack something the mode or an overlay needs."""
         problems = check_inputs(inputs)
         if problems:
             raise InputError("; ".join(problems))
@@ -120,6 +122,8 @@ class PhospheneSimulator:
             raise InputError(f"mode {self.config.mode!r}{' with overlays' if self.overlays else ''} needs "
                              f"{', '.join(missing)}, not in this frame")
         sampling = self.sampling(inputs.camera) if inputs.camera is not None else None
+        if sampling is not None and capture_from_display is not None:
+            sampling = sampling.turned(capture_from_display)
         levels = np.asarray(self.mode.levels(inputs, sampling, self.num_levels))
         if levels.shape != (self.count,):
             raise ValueError(f"mode {self.config.mode} returned {levels.shape} levels for {self.count} phosphenes")

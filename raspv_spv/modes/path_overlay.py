@@ -60,4 +60,6 @@ class PathOverlay(Overlay):
         return pc                                 # NaN rows split the path into visible runs
 
     def highlight(self, inputs: FrameInputs, sampling: Sampling) -> np.ndarray:
-        return phosphenes_on_lines(self.visible_points(inputs), sampling, self.settings["path_width_deg"])
+        key = (self.name, *(self.settings[k] for k in self.defaults))
+        points = inputs.cached(key, lambda: self.visible_points(inputs))       # once per frame
+        return phosphenes_on_lines(points, sampling, self.settings["path_width_deg"])

@@ -49,10 +49,15 @@ def densify_segments(segments: np.ndarray, step: float) -> np.ndarray:
 
 def phosphenes_on_lines(pc: np.ndarray, sampling: Sampling, width_deg: float) -> np.ndarray:
     """(N,) bool: the phosphenes that lines through the finite runs of ``pc`` (C) cover, drawn
-    ``width_deg`` of visual field wide in the phosphene image (projection K_P)."""
+    ``width_deg`` of visual field wide in the phosphene image (projection K_P, after turning
+    the points into the displayed view when ``sampling`` is turned)."""
     out = np.zeros(sampling.count, dtype=bool)
     if not np.isfinite(pc).any():
         return out
+    if sampling.capture_from_display is not None:      # display-time reprojection: the turned view
+        pc = sampling.to_display(pc)
+        with np.errstate(invalid="ignore"):
+            pc[~(pc[:, 2] > 0.05)] = np.nan             # behind the turned view
     K = sampling.K_P
     with np.errstate(invalid="ignore", divide="ignore"):
         px = np.stack([K[0, 0] * pc[:, 0] / pc[:, 2] + K[0, 2], K[1, 1] * pc[:, 1] / pc[:, 2] + K[1, 2]], axis=1)

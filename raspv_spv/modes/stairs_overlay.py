@@ -38,4 +38,6 @@ class StairsOverlay(Overlay):
         return pc
 
     def highlight(self, inputs: FrameInputs, sampling: Sampling) -> np.ndarray:
-        return phosphenes_on_lines(self.visible_points(inputs), sampling, self.settings["stairs_width_deg"])
+        key = (self.name, self.settings["stairs_occlusion_tolerance"])
+        points = inputs.cached(key, lambda: self.visible_points(inputs))       # once per frame
+        return phosphenes_on_lines(points, sampling, self.settings["stairs_width_deg"])
