@@ -1,13 +1,18 @@
 """`spv` node: the phosphene simulator in the graph.
 
 Inputs (only those the mode and overlays need are subscribed): colour, depth, camera info,
-camera pose, scene structure and labels (from the `scene` node). Every new frame of the mode's
-main input (colour, else depth; for scene modes the scene node's outputs) is turned into
-levels by the :class:`~raspv_spv.simulator.PhospheneSimulator`, in its own callback group.
-A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) advances the
-temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
-waits for a camera frame, and ticks it could not run on time are counted as dropped frames
-(the temporal model then advances by the frames that elapsed) and reported every 10 s.
+camera pose, scene structure and labels (from the `scene` node); with ``reprojection`` also
+``/head/orientation``, ``/odom`` and ``/camera/pose``. Every new frame of the mode's main input
+(colour, else depth; for scene modes the scene node's outputs) is turned into levels by the
+:class:`~raspv_spv.simulator.PhospheneSimulator` with the camera pose *at the frame's stamp*
+(a frame waits for its pose when the mode uses one and poses are coming).
+A display loop at ``rate`` Hz (50 by default, the temporal model's frame rate) picks the frame
+to show (:class:`~raspv_spv.reprojection.DisplayView`: the newest, or the one captured
+``device_latency_ms`` ago), re-samples it for the newest head orientation (display-time
+reprojection), advances the temporal model and publishes ``/spv/image`` and ``/spv/frame``
+whatever the inputs do: it never waits for a camera frame, and ticks it could not run on time
+are counted as dropped frames (the temporal model then advances by the frames that elapsed)
+and reported every 10 s.
 ``/spv/map`` is latched and re-published whenever the map changes. Parameter changes build a
 complete new simulator and swap it in, or are refused with the reason; bad input images are
 skipped with one rate-limited warning.
@@ -22,8 +27,9 @@ import threading
 import time
 
 import numpy as np
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, QuaternionStamped
 from rclpy._rclpy_pybind11 import RCLError
+from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
@@ -41,10 +47,13 @@ from raspv_spv.config import config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.phosphene_map import MapError
+from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
+from raspv_spv.reprojection import DisplayFrame, DisplayView
 from raspv_spv.simulator import InputError, PhospheneSimulator
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
+VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
 _BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
 
 
@@ -75,7 +84,9 @@ class SpvNode(RaspvNode):
         self.extras: dict[str, object] = {}             # further inputs by name (e.g. nav_path)
         self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0}
         self._waiting_since: float | None = None
-        self._levels: tuple[int, np.ndarray, float] | None = None   # (map_id, levels, source stamp)
+        # frames with their levels, poses, and what the display shows (reprojection, device latency)
+        self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"])
+        self._pending: FrameInputs | None = None        # a frame waiting for its camera pose
         # display statistics
         self._last_tick: float | None = None
         self._ticks = 0
@@ -121,17 +132,23 @@ class SpvNode(RaspvNode):
             self.sim = new
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
-        self._update_subscriptions(new.needs)
+        if "reprojection" in changes or "device_latency_ms" in changes:
+            self.view.configure(merged["reprojection"], merged["device_latency_ms"])
+        self._update_subscriptions(new.needs, merged["reprojection"])
         if map_changed:
             self.publish_map()
         self.get_logger().info(self._describe(new))
         return None
 
-    def _update_subscriptions(self, needs: frozenset[str]) -> None:
-        """Subscribe to the inputs the mode and overlays read (needed or optional), and only those."""
-        needs = frozenset(needs) | self.sim.optional_inputs
+    def _update_subscriptions(self, needs: frozenset[str], reprojection: bool | None = None) -> None:
+        """Subscribe to the inputs the mode and overlays read (needed or optional) and those the
+        reprojection reads, and only those."""
+        reprojection = self.params["reprojection"] if reprojection is None else reprojection
+        needs = frozenset(needs) | self.sim.optional_inputs | (VIEW_INPUTS if reprojection else frozenset())
         wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
                   "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose),
+                  "head": (QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head),
+                  "odom": (Odometry, topics.ODOM, self.on_odom),
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
                   "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels),
                   "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path),
@@ -167,10 +184,30 @@ class SpvNode(RaspvNode):
         self._frame_arrived("depth")
 
     def on_pose(self, msg: PoseStamped) -> None:
+        stamp = stamp_to_seconds(msg.header.stamp)
         try:
-            self.pose = pose_to_matrix(msg.pose)
+            pose = pose_to_matrix(msg.pose)
+            self.view.tracker.add_camera_pose(stamp, pose)
         except ValueError as exc:
             self.warn_throttled("pose", f"ignoring camera pose: {exc}")
+            return
+        self.pose = pose
+        if self._pending is not None and stamp >= self._pending.stamp - POSE_TOLERANCE_S:
+            self._finish_frame(self._pending)
+
+    def on_head(self, msg: QuaternionStamped) -> None:
+        q = msg.quaternion
+        try:
+            self.view.tracker.add_head(stamp_to_seconds(msg.header.stamp), (q.x, q.y, q.z, q.w))
+        except ValueError as exc:
+            self.warn_throttled("head", f"ignoring {topics.HEAD_ORIENTATION}: {exc}")
+
+    def on_odom(self, msg: Odometry) -> None:
+        try:
+            self.view.tracker.add_odometry(stamp_to_seconds(msg.header.stamp), pose_to_matrix(msg.pose.pose),
+                                           msg.twist.twist.angular.z)
+        except ValueError as exc:
+            self.warn_throttled("odom", f"ignoring {topics.ODOM}: {exc}")
 
     def on_nav_path(self, msg: PathMsg) -> None:
         """The navigation path (world frame) as an (N, 3) array for the path overlay."""
@@ -222,14 +259,30 @@ class SpvNode(RaspvNode):
                                                "phosphenes stay off until it comes")
             return
         inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
-                             camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels,
-                             extras=dict(self.extras))
+                             scene=self.scene, scene_labels=self.scene_labels, extras=dict(self.extras))
+        if self._pending is not None:               # its pose never came: it goes with the pose there is
+            self._finish_frame(self._pending)
+        newest_pose = self.view.tracker.newest_camera_pose_stamp()
+        if ("camera_pose" in sim.needs | sim.optional_inputs and newest_pose is not None
+                and newest_pose < inputs.stamp - POSE_TOLERANCE_S):
+            self._pending = inputs                  # poses come: wait for this frame's (on_pose)
+            return
+        self._finish_frame(inputs)
+
+    def _finish_frame(self, inputs: FrameInputs) -> None:
+        """Levels of a complete frame, with the camera pose at its stamp, handed to the display."""
+        self._pending = None
+        with self._sim_lock:
+            sim, map_id = self.sim, self.map_id
+        inputs.camera_pose = self.view.tracker.camera_pose_at(inputs.stamp)
+        if inputs.camera_pose is None:
+            inputs.camera_pose = self.pose          # a source whose poses are not stamped like its images
         try:
             levels = sim.levels(inputs)
         except InputError as exc:
             self.warn_throttled("input", f"cannot use this frame: {exc}")
             return
-        self._levels = (map_id, levels, self.stamps[which])
+        self.view.add_frame(DisplayFrame(inputs.stamp, inputs, levels, map_id))
 
     # -- display ------------------------------------------------------------------------------
     def tick(self) -> None:
@@ -242,16 +295,13 @@ class SpvNode(RaspvNode):
             frames = max(1, int(round((t0 - self._last_tick) / period)))
             self._dropped += frames - 1
         self._last_tick = t0
+        header = self.header("phosphene")
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
-            current = self._levels
-            if current is not None and current[0] == map_id and current[1].shape == (sim.count,):
-                levels, source_stamp = current[1], current[2]
-            else:
-                levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
+            shown = self.view.levels_at(sim, map_id, stamp_to_seconds(header.stamp))
+            levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
             brightness = sim.brightness(levels, frames)
         image = sim.render(brightness)
-        header = self.header("phosphene")
         msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
         msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
         msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
@@ -319,7 +369,8 @@ class SpvNode(RaspvNode):
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "
-                  f"tick median {statistics.median(self._tick_ms):.2f} ms", flush=True)
+                  f"tick median {statistics.median(self._tick_ms):.2f} ms; {self.view.turned_ticks} re-projected "
+                  f"to a turned head", flush=True)
 
 
 def main(argv=None) -> None:

@@ -34,6 +34,10 @@ PARAMS = [
           maximum=2000.0, unit="uA"),
     Param("pulse_phase_ms", 0.0, "duration of each pulse phase (0: the device's)", minimum=0.0, maximum=5.0, unit="ms"),
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
+    Param("reprojection", True, "re-sample the last camera frame for the newest head orientation at every display tick "
+          "(needs /head/orientation to turn the camera: sim, head-mounted camera; off for recordings)"),
+    Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
+          "(0: as soon as the graph can)", minimum=0.0, maximum=1000.0, unit="ms"),
     Param("output_format", "mono8", "/spv/image encoding: mono8, or green (rgb8, green channel only, for headsets)",
           choices=("mono8", "green")),
     Param("max_depth", 3.0, "depth mapped to level 0 (depth, edges_depth modes)", minimum=0.1, maximum=20.0, unit="m"),

@@ -1,0 +1,250 @@
+"""Display-time reprojection and simulated device latency (no ROS): what the display shows at a tick.
+
+VR headsets hide their rendering latency with *timewarp*: just before the display refreshes,
+the last rendered image is re-sampled for the newest head orientation. The spv display loop
+does the same with the last camera frame: at every display tick the phosphene rays of the view
+the display should show (C1) are turned into the camera that took the frame (C0) and sampled
+there, at K_C·R·K_P⁻¹·P_i with R = R_{C0←C1} (:meth:`~raspv_spv.sampling.Sampling.turned`).
+World-fixed content follows: Chess-Floor intersects the turned rays with the frame's floor and
+maps them with the frame's camera pose; the path and stair overlays project their points into
+the turned view. Phosphenes whose turned ray leaves the camera image are dark; the simulator
+renders a margin around its field of view so small turns stay inside (`sim` ``margin_deg``).
+
+Frames: camera optical C (x right, y down, z forward); head H and base B (x forward, y left,
+z up; ``/head/orientation`` is B ← H, identity looks ahead); world W (``/camera/pose`` W ← C,
+``/odom`` W ← B). With t0 the frame's capture stamp and t1 the display time::
+
+    R_{C0←C1} = R_{B←C0}(t0)ᵀ · R_{B0←B1} · R_{B←H}(t1) · R_{H←C}
+
+- R_{B←C0}(t0), the head the frame was really rendered with: from ``/camera/pose`` and
+  ``/odom`` at the frame's stamp when the source publishes both (the simulator does, stamped
+  like the images); otherwise from ``/head/orientation`` interpolated at the stamp (a camera
+  on the subject's head).
+- R_{B0←B1}: the base's turn since t0, from ``/odom`` (extrapolated with its yaw rate for at
+  most :data:`MAX_BASE_EXTRAPOLATION_S`); identity without odometry.
+- R_{B←H}(t1): the newest head orientation (held since the last message), or the one at
+  now − latency.
+- R_{H←C} = :data:`OPTICAL_IN_HEAD`: the camera looks along the head's x axis.
+
+Only the rotation is reprojected: when the head turns about the neck, the eye also moves a
+few centimetres, and that parallax is not (near objects shift by up to a degree or two until the
+next frame). The reprojection assumes ``/head/orientation`` turns the camera (the simulator, a
+head-mounted camera): turn it off for recordings, whose camera the headset does not move.
+
+Simulated device latency L: the display shows the newest frame captured at or before now − L,
+turned to the head orientation at now − L — a device whose camera-to-implant delay is L for
+head rotations whatever this graph's own latency (as long as that is shorter than L; without
+reprojection the graph's latency adds to L up to the next frame).
+
+All times are float seconds on the clock that stamped the messages (ROS time: the system clock,
+or ``/clock`` of a replayed bag).
+"""
+from __future__ import annotations
+
+import math
+import threading
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from raspv_common.pose_buffer import PoseBuffer
+from raspv_common.rotations import quaternion_to_matrix
+from raspv_spv.frame_inputs import FrameInputs
+
+# R_{H←C}: the optical frame's axes (x right, y down, z forward) in the head frame (x forward,
+# y left, z up) — the same convention as the simulator's avatar (raspv_sim.avatar).
+OPTICAL_IN_HEAD = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+MAX_BASE_EXTRAPOLATION_S = 0.25   # the base's yaw is predicted from its rate at most this far [s]
+STAMP_TOLERANCE_S = 0.002         # a pose this close to a frame's stamp is the frame's pose [s]
+MIN_TURN_DEG = 0.05               # smaller turns show the frame as captured (≪ a camera pixel)
+HISTORY_S = 3.0                   # poses kept [s]
+
+
+def rotation_angle_deg(R: np.ndarray) -> float:
+    """Angle of the rotation ``R`` (3×3) [deg]."""
+    c = (float(np.trace(R)) - 1.0) / 2.0
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+def _yaw_matrix(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+class ViewTracker:
+    """Stamped head, base and camera orientations → R_{C0←C1} between a frame's capture and a
+    display time (see the module's docstring). Thread-safe: inputs arrive in ROS callbacks, the
+    display thread asks."""
+
+    def __init__(self, history_s: float = HISTORY_S) -> None:
+        self._lock = threading.Lock()
+        # head commands hold until the next one: answered however far past the newest
+        self.head = PoseBuffer(max_age_s=history_s, max_extrapolation_s=1e9)
+        self.camera = PoseBuffer(max_age_s=history_s, max_extrapolation_s=STAMP_TOLERANCE_S)
+        self.base = PoseBuffer(max_age_s=history_s, max_extrapolation_s=STAMP_TOLERANCE_S)
+        self._yaw_rate = 0.0                        # rad/s of the newest odometry
+
+    # -- inputs (raise ValueError for non-finite values) -------------------------------------------
+    def add_head(self, stamp: float, quaternion) -> None:
+        """Head orientation B ← H, quaternion (x, y, z, w), at ``stamp`` [s]."""
+        T = np.eye(4)
+        T[:3, :3] = quaternion_to_matrix(*(float(v) for v in quaternion))
+        with self._lock:
+            self.head.add(stamp, T)
+
+    def add_camera_pose(self, stamp: float, world_from_camera: np.ndarray) -> None:
+        with self._lock:
+            self.camera.add(stamp, world_from_camera)
+
+    def add_odometry(self, stamp: float, world_from_base: np.ndarray, yaw_rate: float) -> None:
+        """Base pose W ← B and its yaw rate [rad/s] (``/odom`` twist angular.z)."""
+        if not math.isfinite(yaw_rate):
+            raise ValueError(f"yaw rate must be finite, got {yaw_rate}")
+        with self._lock:
+            self.base.add(stamp, world_from_base)
+            if self.base.latest().stamp == stamp:
+                self._yaw_rate = float(yaw_rate)
+
+    def camera_pose_at(self, stamp: float) -> np.ndarray | None:
+        """W ← C at ``stamp`` (interpolated; None when no pose within the tolerance)."""
+        with self._lock:
+            return self.camera.lookup_or_none(stamp)
+
+    def newest_camera_pose_stamp(self) -> float | None:
+        with self._lock:
+            latest = self.camera.latest()
+        return None if latest is None else latest.stamp
+
+    # -- the answer ---------------------------------------------------------------------------------
+    def capture_from_display(self, capture_stamp: float, display_stamp: float) -> np.ndarray | None:
+        """R_{C0←C1} (3×3) from the camera at ``capture_stamp`` to the view at ``display_stamp``,
+        or None when no head orientation is known (nothing to reproject to)."""
+        with self._lock:
+            if not len(self.head):
+                return None
+            head_now = self.head.lookup(display_stamp)[:3, :3]
+            base_from_camera = self._base_from_camera(capture_stamp)
+            if base_from_camera is None:
+                return None
+            turn = self._base_turn(capture_stamp, display_stamp)
+        return base_from_camera.T @ turn @ head_now @ OPTICAL_IN_HEAD
+
+    def _base_from_camera(self, t0: float) -> np.ndarray | None:
+        world_from_camera = self.camera.lookup_or_none(t0)
+        world_from_base = self.base.lookup_or_none(t0)
+        if world_from_camera is not None and world_from_base is not None:
+            return world_from_base[:3, :3].T @ world_from_camera[:3, :3]
+        head = self.head.lookup_or_none(t0)
+        return None if head is None else head[:3, :3] @ OPTICAL_IN_HEAD
+
+    def _base_turn(self, t0: float, t1: float) -> np.ndarray:
+        """R_{B0←B1}: how the base turned from t0 to t1 (identity without odometry)."""
+        base0 = self.base.lookup_or_none(t0)
+        if base0 is None:
+            return np.eye(3)
+        latest = self.base.latest()
+        if t1 <= latest.stamp:
+            base1 = self.base.lookup(t1)[:3, :3]
+        else:
+            ahead = min(t1 - latest.stamp, MAX_BASE_EXTRAPOLATION_S)
+            base1 = latest.matrix[:3, :3] @ _yaw_matrix(self._yaw_rate * ahead)
+        return base0[:3, :3].T @ base1
+
+
+@dataclass(frozen=True)
+class DisplayFrame:
+    """A camera frame the display can show: its capture ``stamp`` [s], ``inputs``, the
+    ``levels`` its mode gave at the capture orientation, and the map they belong to."""
+
+    stamp: float
+    inputs: FrameInputs
+    levels: np.ndarray
+    map_id: int
+
+
+class FrameHistory:
+    """The recent frames, for a display that shows the frame captured ``latency`` ago."""
+
+    def __init__(self, keep_s: float = 0.5) -> None:
+        self.keep_s = keep_s
+        self._frames: deque[DisplayFrame] = deque()
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+    def add(self, frame: DisplayFrame, latency_s: float = 0.0) -> None:
+        """Append ``frame`` (frames come in stamp order; one stamped > 1 s before the newest —
+        a bag looping — starts over) and forget frames no display ``latency_s`` behind needs."""
+        with self._lock:
+            if self._frames and frame.stamp < self._frames[-1].stamp - 1.0:
+                self._frames.clear()
+            self._frames.append(frame)
+            horizon = frame.stamp - latency_s - self.keep_s
+            while len(self._frames) > 1 and self._frames[1].stamp <= horizon:
+                self._frames.popleft()
+
+    def pick(self, display_stamp: float, latency_s: float = 0.0) -> DisplayFrame | None:
+        """The newest frame captured at or before ``display_stamp − latency_s`` (with no latency:
+        the newest frame, whatever the clocks); None when there is none yet."""
+        with self._lock:
+            if not self._frames:
+                return None
+            if latency_s <= 0.0:
+                return self._frames[-1]
+            due = display_stamp - latency_s
+            for frame in reversed(self._frames):
+                if frame.stamp <= due:
+                    return frame
+            return None
+
+
+class DisplayView:
+    """What the display shows at each tick: the frame for the device latency, turned to the
+    head orientation of the display time (when ``reprojection`` is on).
+
+    The node feeds poses into :attr:`tracker` and frames with :meth:`add_frame`, and asks
+    :meth:`levels_at` at every tick. A turn re-runs the mode on the frame with turned rays
+    (the mode's per-frame work is cached in the frame's inputs), only when the view turned by
+    more than :data:`MIN_TURN_DEG` since the last time.
+    """
+
+    def __init__(self, reprojection: bool = True, latency_ms: float = 0.0) -> None:
+        self.reprojection = reprojection
+        self.latency_s = latency_ms / 1000.0
+        self.tracker = ViewTracker(history_s=max(HISTORY_S, self.latency_s + 1.0))
+        self.frames = FrameHistory()
+        self._last: tuple[object, DisplayFrame, np.ndarray, np.ndarray] | None = None
+        self.turned_ticks = 0                     # ticks whose levels were re-sampled
+
+    def configure(self, reprojection: bool, latency_ms: float) -> None:
+        self.reprojection, self.latency_s = reprojection, latency_ms / 1000.0
+        self._last = None
+
+    def add_frame(self, frame: DisplayFrame) -> None:
+        self.frames.add(frame, self.latency_s)
+
+    def levels_at(self, sim, map_id: int, display_stamp: float) -> tuple[np.ndarray, float] | None:
+        """(levels (N,) uint8, the frame's capture stamp) to show at ``display_stamp`` with
+        simulator ``sim`` (a :class:`~raspv_spv.simulator.PhospheneSimulator`) and map
+        ``map_id``; None when no frame of this map is due yet."""
+        frame = self.frames.pick(display_stamp, self.latency_s)
+        if frame is None or frame.map_id != map_id or frame.levels.shape != (sim.count,):
+            return None
+        if not self.reprojection:
+            return frame.levels, frame.stamp
+        R = self.tracker.capture_from_display(frame.stamp, display_stamp - self.latency_s)
+        if R is None or rotation_angle_deg(R) < MIN_TURN_DEG:
+            return frame.levels, frame.stamp
+        last = self._last
+        if last is not None and last[0] is sim and last[1] is frame and rotation_angle_deg(last[2].T @ R) < MIN_TURN_DEG:
+            return last[3], frame.stamp
+        try:
+            levels = sim.levels(frame.inputs, capture_from_display=R)
+        except ValueError:                  # the simulator changed to a mode this frame cannot feed
+            return frame.levels, frame.stamp
+        self._last = (sim, frame, R, levels)
+        self.turned_ticks += 1
+        return levels, frame.stamp

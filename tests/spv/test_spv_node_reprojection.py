@@ -1,0 +1,117 @@
+"""The spv node's display loop: the last frame turned to the newest /head/orientation between camera
+frames (display-time reprojection), switched off by a parameter, and shown after a simulated
+device latency — one frame published by the test, no simulator."""
+import math
+import time
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped, QuaternionStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import CameraInfo, Image
+
+from raspv_common import topics
+from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_common.qos import COMMAND_QOS, SENSOR_QOS
+from raspv_msgs.msg import PhospheneFrame
+from raspv_spv.reprojection import OPTICAL_IN_HEAD
+
+pytestmark = pytest.mark.integration
+
+K = CameraIntrinsics.from_hfov(320, 240, 80.0)
+
+
+def ramp() -> np.ndarray:
+    u = np.linspace(0, 255, K.width, dtype=np.float32)
+    return np.repeat(np.broadcast_to(u, (K.height, K.width))[..., None], 3, axis=2).astype(np.uint8)
+
+
+def head_msg(probe, yaw_deg: float) -> QuaternionStamped:
+    m = QuaternionStamped()
+    m.header.stamp = probe.node.get_clock().now().to_msg()
+    m.header.frame_id = "base"
+    m.quaternion.z, m.quaternion.w = math.sin(math.radians(yaw_deg) / 2), math.cos(math.radians(yaw_deg) / 2)
+    return m
+
+
+class Source:
+    """Publishes one camera frame (colour, info, camera pose, odometry) with a given stamp."""
+
+    def __init__(self, probe) -> None:
+        self.probe = probe
+        self.color = probe.publisher(topics.COLOR, Image, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+        self.info = probe.publisher(topics.CAMERA_INFO, CameraInfo, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+        self.pose = probe.publisher(topics.CAMERA_POSE, PoseStamped, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+        self.odom = probe.publisher(topics.ODOM, Odometry, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+        self.head = probe.publisher(topics.HEAD_ORIENTATION, QuaternionStamped, qos=COMMAND_QOS,
+                                    wait_for_subscribers=1, timeout=60)
+
+    def frame(self) -> float:
+        stamp = self.probe.node.get_clock().now().to_msg()
+        img = array_to_image(ramp(), "rgb8")
+        img.header.stamp = stamp
+        info = intrinsics_to_camera_info(K)
+        info.header.stamp = stamp
+        T = np.eye(4)                               # base at the origin, head straight: camera = optical axes
+        T[:3, :3] = OPTICAL_IN_HEAD
+        T[:3, 3] = (0.08, 0.0, 1.6)
+        pose = PoseStamped(pose=matrix_to_pose(T))
+        pose.header.stamp, pose.header.frame_id = stamp, "world"
+        odom = Odometry(child_frame_id="base")
+        odom.header.stamp, odom.header.frame_id = stamp, "world"
+        odom.pose.pose.orientation.w = 1.0
+        self.info.publish(info)
+        self.color.publish(img)
+        self.pose.publish(pose)
+        self.odom.publish(odom)
+        return stamp_to_seconds(stamp)
+
+
+def test_display_turns_the_last_frame_with_the_head_and_waits_the_device_latency(graph, probe):
+    graph({"launch": {"nodes": [{"kind": "spv"}]},
+           "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
+                                       "rate": 25.0}}})
+    frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
+    src = Source(probe)
+    src.head.publish(head_msg(probe, 0.0))
+
+    def of(stamp):
+        return lambda f: abs(stamp_to_seconds(f.source_stamp) - stamp) < 1e-6 and max(f.levels) > 0
+    for _ in range(60):            # the first frame may overtake the camera info: send until one is shown
+        t0 = src.frame()
+        try:
+            still = np.array(frames.wait(1, timeout=1.0, predicate=of(t0))[0].levels)
+            break
+        except TimeoutError:
+            continue
+    else:
+        pytest.fail("the spv node never showed a frame")
+    # the head turns 15° left; no new camera frame: the display re-samples the one it has
+    turn = head_msg(probe, 15.0)
+    src.head.publish(turn)
+    t_turn = stamp_to_seconds(turn.header.stamp)
+    turned = frames.wait(1, timeout=30, predicate=lambda f: of(t0)(f) and stamp_to_seconds(f.header.stamp) > t_turn
+                         and np.mean(np.array(f.levels) != still) > 0.3)[0]
+    assert stamp_to_seconds(turned.source_stamp) == pytest.approx(t0)
+    # looking left on a left-dark ramp: the phosphenes still inside the image got darker
+    lv = np.array(turned.levels, dtype=int)
+    both = (lv > 0) & (still > 0)
+    assert both.sum() > 50 and (lv[both] <= still[both]).all()
+
+    # reprojection off: the frame as captured again, whatever the head does
+    [(_, ok, _)] = probe.set_params("spv", {"reprojection": False})
+    assert ok
+    t_set = time.time()
+    frames.wait(1, timeout=30, predicate=lambda f: stamp_to_seconds(f.header.stamp) > t_set and of(t0)(f)
+                and np.array_equal(np.array(f.levels), still))
+
+    # a device with 300 ms between capture and display: a new frame is shown 300 ms after its stamp
+    [(_, ok, _)] = probe.set_params("spv", {"device_latency_ms": 300.0})
+    assert ok
+    t1 = src.frame()
+    first = frames.wait(1, timeout=30, predicate=of(t1))[0]
+    assert stamp_to_seconds(first.header.stamp) >= t1 + 0.3 - 1e-3
+    # … and meanwhile the display kept showing the frame before it
+    shown_between = [f for f in frames.messages if t1 < stamp_to_seconds(f.header.stamp) < t1 + 0.28]
+    assert shown_between and all(abs(stamp_to_seconds(f.source_stamp) - t0) < 1e-6 for f in shown_between)
