@@ -38,6 +38,22 @@ class CameraIntrinsics:
         f = width / (2.0 * math.tan(math.radians(hfov_deg) / 2.0))
         return cls(width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0)
 
+    def with_margin(self, margin_deg: float) -> "CameraIntrinsics":
+        """The same camera (focal lengths, centred principal point) with its image extended by
+        ``margin_deg`` of field of view on every side (widths rounded to whole pixels): what a
+        renderer draws so that a view turned by up to that much stays inside the image."""
+        if not (math.isfinite(margin_deg) and margin_deg >= 0):
+            raise ValueError(f"margin must be a non-negative angle, got {margin_deg}")
+        m = math.radians(margin_deg)
+        half_w = math.atan(self.width / (2.0 * self.fx)) + m
+        half_h = math.atan(self.height / (2.0 * self.fy)) + m
+        if max(half_w, half_h) >= math.radians(85.0):
+            raise ValueError(f"a {margin_deg:g} deg margin makes the field of view "
+                             f"{math.degrees(2 * max(half_w, half_h)):.0f} deg; a pinhole image stays below 170 deg")
+        width = int(round(2.0 * self.fx * math.tan(half_w)))
+        height = int(round(2.0 * self.fy * math.tan(half_h)))
+        return CameraIntrinsics(width, height, self.fx, self.fy, (width - 1) / 2.0, (height - 1) / 2.0)
+
     @classmethod
     def from_matrix(cls, K: np.ndarray, width: int, height: int) -> "CameraIntrinsics":
         K = np.asarray(K, dtype=float).reshape(3, 3)

@@ -22,6 +22,8 @@ SOURCE_KINDS = {"sim", "synthetic", "camera", "replay"}
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="apartment", help="world name or file (default apartment)")
     parser.add_argument("--size", default="320x240", help="camera resolution WxH (default 320x240)")
+    parser.add_argument("--margin", type=float, default=None,
+                        help="field of view rendered around it [deg] (default: the sim node's margin_deg)")
     parser.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto")
     parser.add_argument("--rate", type=float, default=20.0, help="node rate asked for [Hz] (default 20)")
     parser.add_argument("--frames", type=int, default=200, help="frames timed in part 1 (default 200)")
@@ -44,6 +46,13 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _margin(args) -> float:
+    if args.margin is not None:
+        return args.margin
+    from raspv_sim.sim_params import PARAMS
+    return next(p.default for p in PARAMS if p.name == "margin_deg")
+
+
 def core_bench(args) -> dict:
     import numpy as np
 
@@ -51,7 +60,7 @@ def core_bench(args) -> dict:
     from raspv_sim.simulator import SimConfig, Simulation
 
     width, height = _size(args.size)
-    config = SimConfig(width=width, height=height, renderer=args.renderer,
+    config = SimConfig(width=width, height=height, margin_deg=_margin(args), renderer=args.renderer,
                        depth_sensor=DepthSensorConfig() if args.depth_noise else None)
     step, render, convert = [], [], []
     try:
@@ -79,7 +88,9 @@ def core_bench(args) -> dict:
             convert.append(1e3 * (t3 - t2))
         collisions = sim.monitor.count
     total = [a + b + c for a, b, c in zip(step, render, convert)]
-    print(f"part 1 — core, {args.world} at {width}x{height}, {args.frames} frames, renderer {renderer}"
+    K = config.intrinsics()
+    print(f"part 1 — core, {args.world} at {width}x{height} + {_margin(args):g}° margin = {K.width}x{K.height}, "
+          f"{args.frames} frames, renderer {renderer}"
           f"{', depth noise on' if args.depth_noise else ''} ({collisions} collisions on the way)")
     print(f"  step (people + avatar)   [ms] {_stats(step)}")
     print(f"  render (RGB-D + labels)  [ms] {_stats(render)}")
@@ -114,6 +125,7 @@ def node_bench(args) -> int:
         if (extra.get("launch") or {}).get("env"):
             graph["launch"]["env"] = extra["launch"]["env"]
     graph["sim"] = {"ros__parameters": {"world": args.world, "width": width, "height": height, "rate": args.rate,
+                                        "margin_deg": _margin(args),
                                         "renderer": args.renderer, "depth_noise": bool(args.depth_noise),
                                         "cmd_timeout": 1.0}}
     workdir = Path(tempfile.mkdtemp(prefix="raspv-bench-sim-"))

@@ -47,7 +47,8 @@ def depth_sensor_config(p: dict) -> DepthSensorConfig | None:
 def sim_config(p: dict) -> SimConfig:
     avatar = AvatarConfig(body_radius=p["body_radius"], eye_height=p["eye_height"], max_linear=p["max_linear"],
                           max_angular=p["max_angular"], max_step=p["max_step"], slide=p["slide"])
-    return SimConfig(width=p["width"], height=p["height"], hfov_deg=p["hfov_deg"], near=p["near"], far=p["far"],
+    return SimConfig(width=p["width"], height=p["height"], hfov_deg=p["hfov_deg"], margin_deg=p["margin_deg"],
+                     near=p["near"], far=p["far"],
                      renderer=p["renderer"], avatar=avatar, depth_sensor=depth_sensor_config(p),
                      collision_debounce=p["collision_debounce"], seed=p["seed"])
 
@@ -89,10 +90,11 @@ class SimNode(RaspvNode):
         self.last_tick: float | None = None
         self.timings = {"step": 0.0, "render": 0.0, "publish": 0.0, "frames": 0}
         self.create_timer(1.0 / p["rate"], self.tick)
-        s = self.sim.spec
+        s, K = self.sim.spec, self.sim.intrinsics
+        margin = f" + {p['margin_deg']:g}° margin = {K.width}x{K.height} {K.hfov_deg:.0f}°" if p["margin_deg"] else ""
         self.get_logger().info(
             f"world '{s.name}' ({s.source}), renderer: {self.sim.renderer.description}; camera {p['width']}x{p['height']} "
-            f"{p['hfov_deg']:g}° at {p['rate']:g} Hz, eye height {p['eye_height']} m; depth noise "
+            f"{p['hfov_deg']:g}°{margin} at {p['rate']:g} Hz, eye height {p['eye_height']} m; depth noise "
             f"{'on' if p['depth_noise'] else 'off'}")
 
     # -- inputs ---------------------------------------------------------------------------------

@@ -6,6 +6,9 @@ PARAMS = [
     Param("width", 320, "image width", minimum=16, maximum=1920, dynamic=False, unit="px"),
     Param("height", 240, "image height", minimum=16, maximum=1080, dynamic=False, unit="px"),
     Param("hfov_deg", 60.0, "horizontal field of view", minimum=10.0, maximum=150.0, dynamic=False, unit="deg"),
+    Param("margin_deg", 0.0, "field of view rendered beyond hfov_deg on every side at the same focal length (the "
+          "image grows), so the spv node's display-time reprojection keeps head turns inside the image; the "
+          "headset graphs use 10", minimum=0.0, maximum=40.0, dynamic=False, unit="deg"),
     Param("near", 0.05, "near clipping plane", minimum=0.01, maximum=1.0, dynamic=False, unit="m"),
     Param("far", 8.0, "depth range (farther depth is NaN; colour is rendered beyond)", minimum=0.5, maximum=50.0,
           dynamic=False, unit="m"),

@@ -30,11 +30,15 @@ DROP_NAME, DROP_CLASS = "edge", "drop"   # pseudo-object reported when the avata
 
 @dataclass(frozen=True)
 class SimConfig:
-    """Camera (px, deg, m), renderer ("auto", "egl" or "tiny"), avatar, optional depth realism."""
+    """Camera (px, deg, m), renderer ("auto", "egl" or "tiny"), avatar, optional depth realism.
+    ``margin_deg`` widens the rendered image beyond ``width`` × ``height`` at ``hfov_deg`` by that
+    much field of view on every side, at the same focal length (display-time reprojection in the
+    spv node turns the view into it)."""
 
     width: int = 320
     height: int = 240
     hfov_deg: float = 60.0
+    margin_deg: float = 0.0
     near: float = 0.05
     far: float = 8.0
     renderer: str = "auto"
@@ -46,7 +50,8 @@ class SimConfig:
     def intrinsics(self) -> CameraIntrinsics:
         if not 0 < self.hfov_deg < 180:
             raise ValueError(f"horizontal field of view must be in (0, 180) degrees, got {self.hfov_deg}")
-        return CameraIntrinsics.from_hfov(self.width, self.height, self.hfov_deg)
+        camera = CameraIntrinsics.from_hfov(self.width, self.height, self.hfov_deg)
+        return camera.with_margin(self.margin_deg) if self.margin_deg else camera
 
 
 @dataclass

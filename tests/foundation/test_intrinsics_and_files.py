@@ -24,6 +24,18 @@ def test_project_backproject_agree():
     np.testing.assert_allclose(intr.scaled(128, 96).cx, 63.5)
 
 
+def test_a_margin_extends_the_field_at_the_same_focal_length():
+    intr = CameraIntrinsics.from_hfov(320, 240, 60.0)
+    wide = intr.with_margin(10.0)
+    assert (wide.width, wide.height) == (465, 366)          # 2·f·tan(30° + 10°), 2·f·tan(23.4° + 10°)
+    assert (wide.fx, wide.fy) == (intr.fx, intr.fy) and (wide.cx, wide.cy) == (232.0, 182.5)
+    assert wide.hfov_deg == pytest.approx(80.0, abs=0.1)
+    assert intr.with_margin(0.0) == intr
+    for bad in (-1.0, float("nan"), 60.0):
+        with pytest.raises(ValueError):
+            intr.with_margin(bad)
+
+
 def test_invalid_intrinsics_rejected():
     with pytest.raises(ValueError):
         CameraIntrinsics(0, 10, 1, 1, 0, 0)

@@ -123,3 +123,29 @@ def test_labels_name_the_objects_in_view(sim):
     sofa = frame.labels == sim.classes.index("sofa")
     r, g, b = (frame.rgb[sofa].astype(float).mean(axis=0))
     assert b > r and b > g
+
+
+def test_a_margin_widens_the_image_at_the_same_focal_length_and_stays_exact():
+    """margin_deg renders 10° more on every side at the nominal camera's focal length: the same
+    scene, more of it; depth in the margin agrees with ray casts like the centre's."""
+    config = SimConfig(width=160, height=120, margin_deg=10.0, renderer="egl")
+    nominal = SimConfig(width=160, height=120).intrinsics()
+    with Simulation("apartment", config) as s:
+        K = s.intrinsics
+        assert K.fx == pytest.approx(nominal.fx) and K.fy == pytest.approx(nominal.fy)
+        assert K.hfov_deg == pytest.approx(nominal.hfov_deg + 20.0, abs=0.3)
+        assert K.vfov_deg == pytest.approx(nominal.vfov_deg + 20.0, abs=0.3)
+        assert (K.cx, K.cy) == ((K.width - 1) / 2, (K.height - 1) / 2)
+        s.avatar.teleport(6.5, 3.6, math.radians(20.0))
+        frame = s.render()
+        assert frame.depth.shape == (K.height, K.width) and frame.rgb.shape[:2] == (K.height, K.width)
+        v, u = np.mgrid[2:K.height - 2:6, 2:K.width - 2:6]
+        u, v = u.ravel(), v.ravel()
+        margin = (np.abs(u - K.cx) > nominal.width / 2) | (np.abs(v - K.cy) > nominal.height / 2)
+        z_ray, _ = ray_depth(s, u, v, frame.world_from_camera)
+        z_img = frame.depth[v, u]
+        both = margin & np.isfinite(z_ray) & np.isfinite(z_img)
+        assert both.sum() > 50
+        assert np.median(np.abs(z_ray[both] - z_img[both])) < 0.002
+    with pytest.raises(ValueError, match="170 deg"):
+        SimConfig(width=160, height=120, hfov_deg=150.0, margin_deg=20.0).intrinsics()
