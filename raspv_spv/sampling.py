@@ -98,18 +98,30 @@ class Sampling:
         ``fill`` where the ray leaves the image. Images of another size than the camera model
         are treated as the same camera resampled."""
         s = self.for_shape(image.shape[0], image.shape[1])
-        values = image[s.rows, s.cols]
+        values = image[s.rows, s.cols]                  # fancy indexing: already a copy
         if not s.inside.all():
-            values = values.copy()
             values[~s.inside] = fill
         return values
 
 
 def _pixels(camera: CameraIntrinsics, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(uv (N, 2), inside (N,), rows (N,), cols (N,)) of camera-frame ``rays`` in ``camera``;
-    rays with z ≤ 0 get NaN pixels and are outside."""
-    u, v, _ = camera.project(rays)
-    inside = camera.contains(u, v)                      # NaN compares False: behind is outside
-    cols = np.clip(np.rint(np.nan_to_num(u, nan=-1.0)), 0, camera.width - 1).astype(np.intp)
-    rows = np.clip(np.rint(np.nan_to_num(v, nan=-1.0)), 0, camera.height - 1).astype(np.intp)
-    return np.stack([u, v], axis=1), inside, rows, cols
+    rays with z ≤ 0 get NaN pixels and are outside. Written for the display tick (~0.03 ms
+    for 1000 rays): plain ufuncs on (N,) arrays."""
+    z = rays[:, 2]
+    front = z > 1e-12
+    inv = np.divide(1.0, z, out=np.full(z.shape, np.nan), where=front)
+    uv = np.empty((len(z), 2))
+    u, v = uv[:, 0], uv[:, 1]
+    np.multiply(rays[:, 0], inv, out=u)
+    u *= camera.fx
+    u += camera.cx
+    np.multiply(rays[:, 1], inv, out=v)
+    v *= camera.fy
+    v += camera.cy
+    with np.errstate(invalid="ignore"):
+        inside = front & (u >= -0.5) & (u < camera.width - 0.5) & (v >= -0.5) & (v < camera.height - 0.5)
+    # fmax/fmin drop NaN (behind the camera → 0); np.clip costs ~10× more on 1000 elements
+    cols = np.fmin(np.fmax(np.rint(u), 0.0), camera.width - 1).astype(np.intp)
+    rows = np.fmin(np.fmax(np.rint(v), 0.0), camera.height - 1).astype(np.intp)
+    return uv, inside, rows, cols

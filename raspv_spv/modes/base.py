@@ -27,8 +27,9 @@ from raspv_spv.sampling import Sampling
 def quantise(fraction: np.ndarray, num_levels: int) -> np.ndarray:
     """Levels ⌈fraction·(N_L−1)⌉ (the authors' rule) as uint8, fraction clipped to [0, 1];
     NaN gives 0. A tolerance of 1e-9 keeps exact multiples from rounding up."""
-    f = np.nan_to_num(np.asarray(fraction, dtype=np.float64), nan=0.0)
-    return np.ceil(np.clip(f, 0.0, 1.0) * (num_levels - 1) - 1e-9).clip(0, num_levels - 1).astype(np.uint8)
+    levels = np.ceil(np.asarray(fraction, dtype=np.float64) * (num_levels - 1) - 1e-9)
+    # fmax/fmin send NaN to 0 and are ~10× cheaper than nan_to_num + clip (run every display tick)
+    return np.fmin(np.fmax(levels, 0.0), num_levels - 1).astype(np.uint8)
 
 
 class _Plugin(ABC):
