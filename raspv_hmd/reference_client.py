@@ -14,7 +14,7 @@ import math
 import socket
 import time
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Callable, Protocol
 from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
@@ -86,6 +86,7 @@ class ClientOptions:
     ping_hz: float = 2.0
     name: str = "raspv hmd-client"
     keep_last_frame: bool = False
+    on_frame: Callable[[float, P.FrameHeader, np.ndarray], None] | None = None   # (receipt time, header, image)
 
 
 @dataclass
@@ -268,8 +269,12 @@ async def run_client(endpoint: Endpoint, options: ClientOptions | None = None, c
             report.size = (header.width, header.height)
             name = P.FORMAT_NAMES[header.format]
             report.formats_seen[name] = report.formats_seen.get(name, 0) + 1
-            if opt.keep_last_frame:
-                report.last_frame = decode_payload(header, payload).copy()
+            if opt.keep_last_frame or opt.on_frame is not None:
+                image = decode_payload(header, payload).copy()
+                if opt.keep_last_frame:
+                    report.last_frame = image
+                if opt.on_frame is not None:
+                    opt.on_frame(now, header, image)
             if opt.window:
                 await conn.send(P.client_message("ack", seq=header.seq))
             if opt.max_frames is not None and report.frames >= opt.max_frames:

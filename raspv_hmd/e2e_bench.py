@@ -1,0 +1,397 @@
+"""Motion-to-phosphene latency of a whole graph: head-yaw steps sent by a headset client → the
+phosphene frames it receives back.
+
+Part 1 times, on the cores, what display-time reprojection adds to a display tick (turning the
+sampling and re-running the mode on the last frame) for the default preset on a real RGB-D frame.
+Part 2 starts the demo graph (or ``--graph``) on a private ROS domain for each configuration
+(temporal model off and on by default), connects a WebSocket client through the bridge that
+takes control, holds still and steps the head yaw by ``--amplitude`` degrees
+(:mod:`raspv_hmd.motion_latency`), and prints onset and 50 %-of-change latency at the client
+(p50/p95/max), the frames per second received, the spv node's dropped display frames, each
+node's CPU load, and the breakdown by stage from the stamps the messages carry (head message →
+``/head/orientation`` → camera frame with the new view → scene → phosphene frame → client). With
+the temporal model on, its own build-up (the same step of levels through the look-up table,
+offline) is printed beside the measured latency: it is the model, not lag.
+Targets (issue 12): onset p95 ≤ 25 ms, 50 % p95 ≤ 45 ms with reprojection and the temporal
+model off.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ONSET_TARGET_MS = 25.0
+HALF_TARGET_MS = 45.0
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--graph", default="demo", help="graph file or config name (default demo)")
+    parser.add_argument("--steps", type=int, default=20, help="head-yaw steps per configuration (default 20)")
+    parser.add_argument("--amplitude", type=float, default=40.0, help="step size [deg] (default 40)")
+    parser.add_argument("--hold", type=float, default=1.5, help="hold between steps [s] (default 1.5)")
+    parser.add_argument("--temporal", choices=("off", "on", "both"), default="both",
+                        help="temporal model in the configurations run (default both)")
+    parser.add_argument("--reprojection", choices=("on", "off", "both"), default="on",
+                        help="spv display-time reprojection (default on)")
+    parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM:=VALUE",
+                        help="extra parameter override for every configuration (repeatable), "
+                             "e.g. sim.rate:=30 or spv.device_latency_ms:=100")
+    parser.add_argument("--repeat", type=int, default=1, help="run each configuration this many times (default 1)")
+    parser.add_argument("--core-only", action="store_true", help="only part 1 (no graph)")
+
+
+def _stats(values: list[float]) -> str:
+    v = [x for x in values if x is not None]
+    if not v:
+        return "n/a"
+    return (f"p50 {np.percentile(v, 50):6.1f}  p95 {np.percentile(v, 95):6.1f}  max {max(v):6.1f}  "
+            f"(n={len(v)})")
+
+
+# -- part 1: what reprojection costs per display tick ---------------------------------------------
+
+def core_bench(frames: int = 300) -> None:
+    import cv2
+
+    from raspv_common.intrinsics import CameraIntrinsics
+    from raspv_common.rgbd_files import read_color, read_depth_scaled
+    from raspv_perception.scene_config import SceneConfig
+    from raspv_perception.scene_perception import ScenePerception
+    from raspv_spv.config import spv_config
+    from raspv_spv.frame_inputs import FrameInputs
+    from raspv_spv.reprojection import OPTICAL_IN_HEAD
+    from raspv_spv.simulator import PhospheneSimulator
+
+    cv2.setNumThreads(1)
+    data = Path(__file__).resolve().parent.parent / "tests" / "data" / "rgbd"
+    if not (data / "tum_color.png").exists():
+        print(f"part 1 skipped: the TUM frame is not in {data} (installed without the tests)")
+        return
+    camera = CameraIntrinsics(640, 480, 525.0, 525.0, 319.5, 239.5)
+    color = read_color(data / "tum_color.png")
+    depth = read_depth_scaled(data / "tum_depth.png", 1 / 5000)
+    scene = ScenePerception(SceneConfig()).process(depth, camera)
+    print("part 1 — display-time reprojection per display tick (cores, one thread), default preset 800x800, "
+          "TUM desk frame 640x480")
+    for mode in ("grey", "depth", "edges", "chess_floor", "wall_obstacles"):
+        sim = PhospheneSimulator(spv_config("default", mode=mode, temporal=True))
+        inputs = FrameInputs(color=color, depth=depth, camera=camera, scene=scene.structure,
+                             scene_labels=scene.labels, camera_pose=np.eye(4))
+        sim.levels(inputs)                                  # the frame's own levels (on arrival)
+        plain, turned = [], []
+        for i in range(frames):
+            yaw = math.radians(2.0 * math.sin(i / 7.0))     # a small head turn, different every tick
+            c, s = math.cos(yaw), math.sin(yaw)
+            head = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            R = OPTICAL_IN_HEAD.T @ head @ OPTICAL_IN_HEAD
+            t0 = time.perf_counter()
+            sim.levels(inputs, capture_from_display=R)
+            t1 = time.perf_counter()
+            sim.render(sim.brightness(sim.levels(inputs) if i == 0 else np.zeros(sim.count, np.uint8)))
+            t2 = time.perf_counter()
+            turned.append(1e3 * (t1 - t0))
+            plain.append(1e3 * (t2 - t1))
+        extra = float(np.median(turned))
+        print(f"  {mode:15s} + {extra:5.3f} ms median (p95 {np.percentile(turned, 95):5.3f}) per tick that turned; "
+              f"a tick's temporal model + render alone {np.median(plain):5.3f} ms  "
+              f"[target +0.3 ms: {'met' if extra <= 0.3 else 'MISSED'}]")
+
+
+# -- part 2: the graph ------------------------------------------------------------------------------
+
+@dataclass
+class ProbeLog:
+    """Stamps seen by the probe node [s, ROS clock = system clock]."""
+
+    heads: list[tuple[float, float]] = field(default_factory=list)           # (stamp, yaw deg)
+    poses: list[tuple[float, float]] = field(default_factory=list)           # (stamp, camera heading deg)
+    scenes: list[tuple[float, float]] = field(default_factory=list)          # (stamp, received)
+    frames: list[tuple[float, float, np.ndarray]] = field(default_factory=list)  # (stamp, source stamp, levels)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+
+def _yaw_deg(x: float, y: float, z: float, w: float) -> float:
+    return math.degrees(math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+
+
+def _subscribe(probe, log: ProbeLog) -> None:
+    from geometry_msgs.msg import PoseStamped, QuaternionStamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from raspv_common import topics
+    from raspv_common.conversions import stamp_to_seconds
+    from raspv_msgs.msg import PhospheneFrame
+    from raspv_msgs.msg import SceneStructure as SceneStructureMsg
+
+    qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    offset = time.time() - time.monotonic()
+
+    def head(m):
+        q = m.quaternion
+        with log.lock:
+            log.heads.append((stamp_to_seconds(m.header.stamp), _yaw_deg(q.x, q.y, q.z, q.w)))
+
+    def pose(m):
+        q = m.pose.orientation                # optical z axis = heading of the view
+        zx = 2 * (q.x * q.z + q.w * q.y)
+        zy = 2 * (q.y * q.z - q.w * q.x)
+        with log.lock:
+            log.poses.append((stamp_to_seconds(m.header.stamp), math.degrees(math.atan2(zy, zx))))
+
+    def scene(m):
+        with log.lock:
+            log.scenes.append((stamp_to_seconds(m.header.stamp), time.monotonic() + offset))
+
+    def frame(m):
+        levels = np.frombuffer(bytes(m.levels), np.uint8)
+        with log.lock:
+            log.frames.append((stamp_to_seconds(m.header.stamp), stamp_to_seconds(m.source_stamp), levels))
+
+    n = probe.node
+    log.subscriptions = [n.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, head, qos),
+                         n.create_subscription(PoseStamped, topics.CAMERA_POSE, pose, qos),
+                         n.create_subscription(SceneStructureMsg, topics.SCENE_STRUCTURE, scene, qos),
+                         n.create_subscription(PhospheneFrame, topics.SPV_FRAME, frame, qos)]
+
+
+def _first(items, predicate):
+    return next((x for x in items if predicate(x)), None)
+
+
+def breakdown(log: ProbeLog, results, step_times, step_yaws, receipt, stamps, amplitude: float) -> dict[str, list]:
+    """Per-stage latencies [ms] of every counted step (see the module docstring)."""
+    out = {k: [] for k in ("client → /head/orientation", "head → first phosphene frame that changed",
+                           "head → camera frame with the new view", "camera frame → scene perception out",
+                           "camera frame → phosphene frame of it", "phosphene frame → client")}
+    order = np.argsort(stamps, kind="stable")
+    sorted_stamps, sorted_rx = stamps[order], receipt[order]
+
+    def received(stamp: float) -> float | None:
+        """Receipt of the first frame the client got showing ``stamp`` or later (the bridge sends
+        only the newest frame, so the exact one may have been skipped)."""
+        i = int(np.searchsorted(sorted_stamps, stamp - 1e-6))
+        return float(sorted_rx[i]) if i < len(sorted_rx) else None
+    with log.lock:
+        heads, poses, scenes, frames = list(log.heads), list(log.poses), list(log.scenes), list(log.frames)
+    sent_yaw = dict(zip(step_times, step_yaws))
+    for r in results:
+        new_yaw = sent_yaw[r.sent]
+        head = _first(heads, lambda h: h[0] >= r.sent - 0.005 and abs(h[1] - new_yaw) < 1.0)
+        if head is None:
+            continue
+        t_head = head[0]
+        out["client → /head/orientation"].append(1e3 * (t_head - r.sent))
+        before = [f for f in frames if f[0] < t_head]
+        if before:
+            ref = before[-1][2]
+            change = _first(frames, lambda f: f[0] >= t_head and f[2].shape == ref.shape
+                            and np.mean(f[2] != ref) > 0.05)
+            if change is not None:
+                out["head → first phosphene frame that changed"].append(1e3 * (change[0] - t_head))
+                rx = received(change[0])
+                if rx is not None:
+                    out["phosphene frame → client"].append(1e3 * (rx - change[0]))
+        pre_pose = [p for p in poses if p[0] < t_head]
+        if not pre_pose:
+            continue
+        heading0 = pre_pose[-1][1]
+        capture = _first(poses, lambda p: p[0] >= t_head and abs((p[1] - heading0 + 180) % 360 - 180) > amplitude / 2)
+        if capture is None:
+            continue
+        t_cap = capture[0]
+        out["head → camera frame with the new view"].append(1e3 * (t_cap - t_head))
+        sc = _first(scenes, lambda s: s[0] >= t_cap - 1e-6)
+        if sc is not None:
+            out["camera frame → scene perception out"].append(1e3 * (sc[1] - t_cap))
+        shown = _first(frames, lambda f: f[1] >= t_cap - 1e-6)
+        if shown is not None:
+            out["camera frame → phosphene frame of it"].append(1e3 * (shown[0] - t_cap))
+    return out
+
+
+def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph_path: Path) -> tuple[list, list]:
+    """Onset and 50 % latency [ms] of the temporal model alone: the measured steps' settled
+    levels before → after, switched in one display frame through the look-up table offline,
+    with the same criteria as at the client."""
+    from raspv_bringup.graph import load_graph
+    from raspv_hmd.motion_latency import analyse_steps, reduce_frame
+    from raspv_spv.config import config_from_node_params
+    from raspv_spv.simulator import PhospheneSimulator
+    from raspv_spv.spv_params import PARAMS
+
+    graph = load_graph(graph_path, config_overrides)
+    entry = next(n for n in graph.nodes if n.kind == "spv")
+    params = {p.name: p.default for p in PARAMS}
+    params.update(entry.params)
+    sim = PhospheneSimulator(config_from_node_params(params))
+    rate = params["rate"]
+    with log.lock:
+        frames = list(log.frames)
+    onset, half = [], []
+    for r in results:
+        pre = [f for f in frames if f[0] < r.sent]
+        post = [f for f in frames if r.sent + 0.8 < f[0] < r.sent + 1.2]
+        if not pre or not post or pre[-1][2].shape != (sim.count,) or post[-1][2].shape != (sim.count,):
+            continue
+        sim.reset()
+        images, times = [], []
+        for k in range(60):
+            levels = pre[-1][2] if k < 30 else post[-1][2]
+            images.append(reduce_frame(sim.render(sim.brightness(levels))))
+            times.append(k / rate)
+        step = 30 / rate
+        res, _ = analyse_steps(np.array(times), np.array(times), np.stack(images), np.array([step - 1e-6]))
+        if res:
+            onset.append(None if res[0].onset_s is None else 1e3 * res[0].onset_s)
+            half.append(None if res[0].half_s is None else 1e3 * res[0].half_s)
+    return onset, half
+
+
+def _cpu_by_kind(launcher_pid: int) -> dict[str, tuple[int, float]]:
+    """{node kind: (pid, CPU seconds so far)} of a running graph's node processes."""
+    import psutil
+
+    from raspv_bringup.registry import NODES
+
+    module_kind = {spec.module: kind for kind, spec in NODES.items()}
+    out = {}
+    try:
+        children = psutil.Process(launcher_pid).children(recursive=True)
+    except psutil.Error:
+        return out
+    for p in children:
+        try:
+            cmd = p.cmdline()
+            t = p.cpu_times()
+        except psutil.Error:
+            continue
+        for i, a in enumerate(cmd[:-1]):
+            if a == "-m" and cmd[i + 1] in module_kind:
+                out[module_kind[cmd[i + 1]]] = (p.pid, t.user + t.system)
+    return out
+
+
+def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) -> list[str]:
+    from raspv_bringup.testing import Probe, RunningGraph
+    from raspv_hmd.motion_latency import analyse_steps
+
+    print(f"\n{label}  [{' '.join(overrides)}]")
+    workdir = Path(tempfile.mkdtemp(prefix="raspv-bench-e2e-"))
+    g = RunningGraph(graph_path, workdir, ["bridge.port:=0", "bridge.tcp_port:=-1", "sim.log_dir:=", *overrides])
+    probe = Probe("bench_e2e")
+    log = ProbeLog()
+    failures: list[str] = []
+    try:
+        url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=120).group(1)
+        _subscribe(probe, log)
+        deadline = time.monotonic() + 120
+        while not any(f[2].any() for f in list(log.frames)[-5:]):      # phosphenes lit: the graph runs
+            if time.monotonic() > deadline or not g.running():
+                raise RuntimeError(f"no lit phosphene frame within 120 s:\n{g.output[-2000:]}")
+            time.sleep(0.2)
+        cpu0 = _cpu_by_kind(g.proc.pid)
+        t0 = time.monotonic()
+        out = workdir / "steps.npz"
+        cmd = [sys.executable, "-m", "raspv_hmd.motion_latency", url, str(out), "--steps", str(args.steps),
+               "--amplitude", str(args.amplitude), "--hold", str(args.hold)]
+        duration = 2.0 + args.steps * (args.hold + 0.1) + 30
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=duration + 60)
+        if done.returncode != 0:
+            raise RuntimeError(f"step client failed: {done.stderr.strip()[-800:]}")
+        cpu1, wall = _cpu_by_kind(g.proc.pid), time.monotonic() - t0
+    finally:
+        probe_node = probe
+        probe_node.close()
+        g.stop()
+    data = np.load(out)
+    report = json.loads(str(data["report"]))
+    receipt, stamps, frames = data["receipt"], data["stamps"], data["frames"]
+    step_times, step_yaws = data["step_times"], data["step_yaws"]
+    results, skipped = analyse_steps(receipt, stamps, frames, step_times)
+    onset = [None if r.onset_s is None else 1e3 * r.onset_s for r in results]
+    half = [None if r.half_s is None else 1e3 * r.half_s for r in results]
+    print(f"  client: {report['frames']} frames at {report['fps']:.1f} fps ({report['formats']}), "
+          f"{len(step_times)} steps sent, {len(results)} counted, {skipped} skipped (views alike)")
+    print(f"  onset            [ms] {_stats(onset)}")
+    print(f"  50 % of change   [ms] {_stats(half)}")
+    missing = sum(1 for r in results if r.half_s is None)
+    if missing:
+        print(f"  ({missing} steps never reached 50 % before the next step)")
+    spv = re.search(r"spv: (\d+) display frames, (\d+) dropped, tick median ([\d.]+) ms", g.output)
+    if spv:
+        n, d = int(spv.group(1)), int(spv.group(2))
+        print(f"  spv display: {n} frames, {d} dropped ({100 * d / max(1, n + d):.2f} %), tick median {spv.group(3)} ms")
+    loads = []
+    for kind, (pid, t1) in sorted(cpu1.items()):
+        if kind in cpu0 and cpu0[kind][0] == pid:
+            loads.append(f"{kind} {100 * (t1 - cpu0[kind][1]) / wall:.0f} %")
+    if loads:
+        print(f"  CPU while stepping (of one core): {', '.join(loads)}")
+    print("  breakdown by stage (stamps carried by the messages):")
+    for name, values in breakdown(log, results, list(step_times), list(step_yaws), receipt, stamps,
+                                  args.amplitude).items():
+        print(f"    {name:42s} [ms] {_stats(values)}")
+    if any("spv.temporal:=true" == o for o in overrides):
+        b_onset, b_half = temporal_build_up(log, results, ["bridge.port:=0", *overrides], graph_path)
+        print(f"  the temporal model alone (same steps of levels, offline): onset [ms] {_stats(b_onset)}; "
+              f"50 % [ms] {_stats(b_half)}")
+    elif any("spv.reprojection:=true" == o for o in overrides):
+        valid_onset, valid_half = [x for x in onset if x is not None], [x for x in half if x is not None]
+        if valid_onset and np.percentile(valid_onset, 95) > ONSET_TARGET_MS:
+            failures.append(f"{label}: onset p95 {np.percentile(valid_onset, 95):.1f} ms > {ONSET_TARGET_MS:g} ms")
+        if valid_half and np.percentile(valid_half, 95) > HALF_TARGET_MS:
+            failures.append(f"{label}: 50 % p95 {np.percentile(valid_half, 95):.1f} ms > {HALF_TARGET_MS:g} ms")
+    return failures
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bringup.graph import GraphError, resolve_graph_path
+    from raspv_bringup.testing import claim_private_domain
+
+    if args.steps < 2 or not args.hold > 0.5 or not 0 < args.amplitude <= 90 or args.repeat < 1:
+        print("raspv bench e2e: --steps >= 2, --hold > 0.5 s, 0 < --amplitude <= 90, --repeat >= 1")
+        return 2
+    core_bench()
+    if args.core_only:
+        return 0
+    try:
+        graph_path = resolve_graph_path(args.graph)
+    except GraphError as exc:
+        print(f"raspv bench e2e: {exc}")
+        return 2
+    domain = claim_private_domain()
+    print(f"\npart 2 — {graph_path.name} on ROS domain {domain}: {args.steps} head-yaw steps of "
+          f"{args.amplitude:g}° held ~{args.hold:g} s, WebSocket client through the bridge")
+    temporal = {"off": [False], "on": [True], "both": [False, True]}[args.temporal]
+    reproject = {"on": [True], "off": [False], "both": [True, False]}[args.reprojection]
+    failures: list[str] = []
+    for rep in range(args.repeat):
+        for r in reproject:
+            for t in temporal:
+                label = (f"reprojection {'on' if r else 'off'}, temporal model {'on' if t else 'off'}"
+                         + (f" (run {rep + 1})" if args.repeat > 1 else ""))
+                overrides = [f"spv.reprojection:={'true' if r else 'false'}",
+                             f"spv.temporal:={'true' if t else 'false'}", *args.set]
+                try:
+                    failures += run_configuration(args, graph_path, label, overrides)
+                except (RuntimeError, TimeoutError, subprocess.TimeoutExpired) as exc:
+                    print(f"  failed: {exc}")
+                    failures.append(f"{label}: did not run")
+    print(f"\ntargets (reprojection on, temporal model off): onset p95 ≤ {ONSET_TARGET_MS:g} ms, "
+          f"50 % of change p95 ≤ {HALF_TARGET_MS:g} ms")
+    for f in failures:
+        print(f"  ABOVE TARGET: {f}")
+    if not failures:
+        print("  all configurations within the targets")
+    return 0

@@ -1,0 +1,107 @@
+"""The motion-to-phosphene probe of `raspv bench e2e` (raspv_hmd.motion_latency): the step schedule,
+the onset / 50 %-of-change criteria, and a real client stepping its head against a headset server."""
+import asyncio
+import math
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from raspv_hmd import protocol as P
+from raspv_hmd.motion_latency import StepSchedule, analyse_steps, record_steps, step_send_times
+from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig
+
+
+def test_schedule_alternates_and_lands_at_every_phase():
+    s = StepSchedule(steps=6, amplitude_deg=40.0, hold_s=1.0, jitter_s=0.1, warmup_s=2.0, seed=3)
+    assert s.times[0] == 2.0 and np.all(np.diff(s.times) >= 1.0) and np.all(np.diff(s.times) < 1.1)
+    assert len({round(d % 0.05, 3) for d in np.diff(s.times)}) > 2            # not locked to a 20 Hz clock
+    assert [s.yaw_deg(t + 0.01) for t in s.times] == [40.0, 0.0] * 3
+    assert s.yaw_deg(1.0) == 0.0 and s.at(s.times[0] + 0.01) == (0.0, 0.0, pytest.approx(math.radians(40.0)))
+    assert s.end_s > s.times[-1] + 1.0
+
+
+def test_step_send_times_are_the_jumps_in_yaw():
+    heads = [(0.00, P.rpy_to_quaternion(0, 0, 0)), (0.02, P.rpy_to_quaternion(0, 0, 0)),
+             (0.04, P.rpy_to_quaternion(0, 0, math.radians(40))), (0.06, P.rpy_to_quaternion(0, 0, math.radians(40))),
+             (0.08, P.rpy_to_quaternion(0, 0, 0))]
+    times, yaws = step_send_times(heads, 20.0)
+    assert list(times) == [0.04, 0.08] and np.allclose(yaws, [40.0, 0.0])
+
+
+def patterns():
+    a = np.zeros((40, 40), np.uint8)
+    b = np.zeros((40, 40), np.uint8)
+    a[5:35:4, 2:18:4] = 200                     # phosphenes on the left …
+    b[5:35:4, 22:38:4] = 200                    # … and on the right after the turn
+    return a, b
+
+
+def timeline(events):
+    """Frames every 20 ms from 0 to 2 s; ``events`` maps a start time to the image shown from then."""
+    t = np.round(np.arange(0.0, 2.0, 0.02), 6)
+    keys = sorted(events)
+    frames = np.stack([events[max(k for k in keys if k <= x)] for x in t])
+    return t, t.copy(), frames
+
+
+def test_a_dark_frame_is_an_onset_but_not_half_of_the_change():
+    a, b = patterns()
+    partly = b.copy()
+    partly[:, 33:] = 0                          # 3 of its 4 columns of phosphenes arrived
+    t, stamps, frames = timeline({0.0: a, 1.04: np.zeros_like(a), 1.10: partly, 1.20: b})
+    [r], skipped = analyse_steps(t, stamps, frames, np.array([1.0]))
+    assert skipped == 0
+    assert r.onset_s == pytest.approx(0.04) and r.onset_stamp == pytest.approx(1.04)
+    assert r.half_s == pytest.approx(0.10)      # not the dark frame (a plain difference would say 0.04)
+
+
+def test_superposed_views_are_not_half_a_change_until_the_old_one_fades():
+    a, b = patterns()
+    t, stamps, frames = timeline({0.0: a, 1.06: np.maximum(a, b), 1.14: b})
+    [r], _ = analyse_steps(t, stamps, frames, np.array([1.0]))
+    assert r.onset_s == pytest.approx(0.06) and r.half_s == pytest.approx(0.14)
+
+
+def test_steps_between_alike_views_are_skipped():
+    a, _ = patterns()
+    noisy = a.copy()
+    noisy[0, 0] = 10
+    t, stamps, frames = timeline({0.0: a, 1.0: noisy})
+    results, skipped = analyse_steps(t, stamps, frames, np.array([1.0]))
+    assert results == [] and skipped == 1
+
+
+def test_a_client_stepping_its_head_sees_the_server_follow():
+    """The probe against a headset server whose frames follow the last head yaw it received."""
+    a, b = (np.kron(p, np.ones((8, 8), np.uint8)) for p in patterns())     # 320×320 frames
+    yaw = [0.0]
+
+    def on_head(q, _t):
+        yaw[0] = math.degrees(math.atan2(2 * (q[3] * q[2] + q[0] * q[1]), 1 - 2 * (q[1] ** 2 + q[2] ** 2)))
+
+    server = HeadsetServer(ServerConfig(host="127.0.0.1", port=0, tcp_port=None), Callbacks(on_head_orientation=on_head))
+    server.start()
+    stop = threading.Event()
+
+    def feed():
+        while not stop.is_set():
+            server.submit_frame(b if yaw[0] > 20 else a, time.time())
+            stop.wait(0.02)
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    try:
+        schedule = StepSchedule(steps=3, amplitude_deg=40.0, hold_s=0.6, warmup_s=0.6)
+        data = asyncio.run(record_steps(f"http://127.0.0.1:{server.port}/", schedule))
+    finally:
+        stop.set()
+        feeder.join()
+        server.stop()
+    assert data["report"]["role"] == "control" and data["report"]["frames"] > 40
+    assert len(data["step_times"]) == 3 and list(np.round(data["step_yaws"])) == [40.0, 0.0, 40.0]
+    assert data["frames"].shape[1:] == (80, 80)                              # kept reduced 4×
+    results, skipped = analyse_steps(data["receipt"], data["stamps"], data["frames"], data["step_times"])
+    assert skipped == 0 and len(results) == 3
+    assert all(r.onset_s is not None and r.half_s is not None and r.onset_s <= r.half_s for r in results)
