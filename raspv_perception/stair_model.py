@@ -7,7 +7,7 @@ of the first step's front edge (on the floor), y down (gravity), z horizontal in
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
 import numpy as np
@@ -63,3 +63,12 @@ class Staircase:
             base = front + drop                                # the front edge at the lower level
             segs.extend([(base[0], front[0]), (base[1], front[1]), (base[0], base[1])])
         return np.array(segs, dtype=np.float64).reshape(-1, 2, 3)
+
+    def in_frame(self, new_from_camera: np.ndarray) -> "Staircase":
+        """The same staircase seen from another camera pose: ``new_from_camera`` (4×4) maps this
+        staircase's camera frame C to the new one (e.g. C_frame ← C_detection from two poses);
+        ``distance`` stays the detection's."""
+        T = np.asarray(new_from_camera, dtype=np.float64)
+        R, t = T[:3, :3], T[:3, 3]
+        steps = [replace(st, tread_corners=np.asarray(st.tread_corners, dtype=np.float64) @ R.T + t) for st in self.steps]
+        return replace(self, camera_from_stair=T @ self.camera_from_stair, steps=steps)

@@ -82,7 +82,7 @@ class SpvNode(RaspvNode):
         self.color = self.depth = self.pose = None
         self.scene = self.scene_labels = None          # scene perception (scene modes)
         self.extras: dict[str, object] = {}             # further inputs by name (e.g. nav_path)
-        self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0}
+        self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0, "stairs": 0.0}
         self._waiting_since: float | None = None
         # frames with their levels, poses, and what the display shows (reprojection, device latency)
         self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"])
@@ -218,9 +218,11 @@ class SpvNode(RaspvNode):
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
 
     def on_stairs(self, msg: StairDetection) -> None:
-        """The newest staircase detection (camera frame of its depth image) for the stairs overlay."""
+        """The newest staircase detection (camera frame of its depth image) for the stairs overlay;
+        each frame moves it into its own camera frame (:meth:`_finish_frame`)."""
         stair = staircase_from_msg(msg)
         self.extras["stairs"] = [] if stair is None else [stair]
+        self.stamps["stairs"] = stamp_to_seconds(msg.header.stamp)
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)
@@ -277,6 +279,12 @@ class SpvNode(RaspvNode):
         inputs.camera_pose = self.view.tracker.camera_pose_at(inputs.stamp)
         if inputs.camera_pose is None:
             inputs.camera_pose = self.pose          # a source whose poses are not stamped like its images
+        elif inputs.extras.get("stairs") and abs(self.stamps["stairs"] - inputs.stamp) > POSE_TOLERANCE_S:
+            # the staircase was measured in an earlier depth frame: bring it into this frame's camera
+            detected_at = self.view.tracker.camera_pose_at(self.stamps["stairs"])
+            if detected_at is not None:
+                here_from_there = np.linalg.inv(inputs.camera_pose) @ detected_at
+                inputs.extras["stairs"] = [s.in_frame(here_from_there) for s in inputs.extras["stairs"]]
         try:
             levels = sim.levels(inputs)
         except InputError as exc:

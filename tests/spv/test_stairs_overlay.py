@@ -87,3 +87,19 @@ def test_wider_lines_light_more_phosphenes():
     thin = StairsOverlay({"stairs_width_deg": 1.0}).highlight(inputs, sampling)
     thick = StairsOverlay({"stairs_width_deg": 4.0}).highlight(inputs, sampling)
     assert thick.sum() > thin.sum() and not (thin & ~thick).any()
+
+
+def test_a_staircase_moves_into_the_camera_frame_of_a_later_frame():
+    """The spv node draws a detection of an earlier depth frame in the current frame's camera
+    (C_now ← C_detection from the camera poses at both stamps)."""
+    stair = ascending_stair()
+    c, s = math.cos(0.2), math.sin(0.2)
+    T = np.array([[c, 0.0, s, 0.1], [0.0, 1.0, 0.0, 0.0], [-s, 0.0, c, -0.3], [0.0, 0.0, 0.0, 1.0]])
+    moved = stair.in_frame(T)
+    seg = stair.segments().reshape(-1, 3)
+    assert np.allclose(moved.segments().reshape(-1, 3), seg @ T[:3, :3].T + T[:3, 3])
+    assert np.allclose(moved.camera_from_stair, T @ stair.camera_from_stair)
+    assert np.allclose(stair.segments().reshape(-1, 3), seg)                  # the original is untouched
+    inputs, sampling = setup([moved])
+    assert not np.array_equal(StairsOverlay().highlight(inputs, sampling),
+                              StairsOverlay().highlight(setup([stair])[0], sampling))
