@@ -83,8 +83,8 @@ class SimNode(RaspvNode):
         self.pub_collisions = self.create_publisher(CollisionEventMsg, topics.SIM_COLLISIONS, EVENT_QOS)
         self.pub_classes = self.create_publisher(String, topics.SIM_CLASSES, LATCHED_QOS)
         self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
-        self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS)
-        self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)
+        self._commands = [self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS),
+                          self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf
         self.last_tick: float | None = None
@@ -131,8 +131,23 @@ class SimNode(RaspvNode):
             self.sim.monitor.debounce_s = changes["collision_debounce"]
         return None
 
+    def take_commands(self) -> None:
+        """Apply a head turn or twist that arrived while the last frame rendered, now. rclpy's
+        executor runs an overdue timer before the subscriptions that became ready meanwhile, so
+        when rendering takes as long as the period (60 Hz, or a loaded machine) every head turn
+        would reach the camera one frame late; the executor then finds nothing left to take."""
+        for sub in self._commands:
+            try:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+            except Exception:  # noqa: BLE001 - a destroyed handle at shutdown: nothing to take
+                continue
+            if taken is not None:
+                sub.callback(taken[0])
+
     # -- the loop -------------------------------------------------------------------------------
     def tick(self) -> None:
+        self.take_commands()
         t0 = time.monotonic()
         dt = 0.0 if self.last_tick is None else min(t0 - self.last_tick, MAX_STEP_S)
         self.last_tick = t0
