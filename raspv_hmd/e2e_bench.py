@@ -6,8 +6,8 @@ sampling and re-running the mode on the last frame) for the default preset on a 
 Part 2 starts the demo graph (or ``--graph``) on a private ROS domain for each configuration
 (temporal model off and on by default), connects a WebSocket client through the bridge that
 takes control, holds still and steps the head yaw by ``--amplitude`` degrees
-(:mod:`raspv_hmd.motion_latency`), and prints onset and 50 %-of-change latency at the client
-(p50/p95/max), the frames per second received, the spv node's dropped display frames, each
+(:mod:`raspv_hmd.motion_latency`), and prints onset, 50 %-of-change and half-way-to-the-new-view
+latency at the client (p50/p95/max), the frames per second received, the spv node's dropped display frames, each
 node's CPU load, and the breakdown by stage from the stamps the messages carry (head message →
 ``/head/orientation`` → camera frame with the new view → scene → phosphene frame → client). With
 the temporal model on, its own build-up (the same step of levels through the look-up table,
@@ -169,19 +169,14 @@ def _first(items, predicate):
     return next((x for x in items if predicate(x)), None)
 
 
-def breakdown(log: ProbeLog, results, step_times, step_yaws, receipt, stamps, amplitude: float) -> dict[str, list]:
-    """Per-stage latencies [ms] of every counted step (see the module docstring)."""
-    out = {k: [] for k in ("client → /head/orientation", "head → first phosphene frame that changed",
-                           "head → camera frame with the new view", "camera frame → scene perception out",
-                           "camera frame → phosphene frame of it", "phosphene frame → client")}
-    order = np.argsort(stamps, kind="stable")
-    sorted_stamps, sorted_rx = stamps[order], receipt[order]
-
-    def received(stamp: float) -> float | None:
-        """Receipt of the first frame the client got showing ``stamp`` or later (the bridge sends
-        only the newest frame, so the exact one may have been skipped)."""
-        i = int(np.searchsorted(sorted_stamps, stamp - 1e-6))
-        return float(sorted_rx[i]) if i < len(sorted_rx) else None
+def breakdown(log: ProbeLog, results, step_times, step_yaws, amplitude: float) -> dict[str, list]:
+    """Per-stage latencies [ms] of every counted step, from the stamps the messages carry: the
+    client's send time, ``/head/orientation`` (bridge), the onset frame's display tick (its
+    image stamp) and receipt, the first camera frame rendered with the new view
+    (``/camera/pose``), the scene perception of it and the first display tick showing it."""
+    out = {k: [] for k in ("client → /head/orientation", "/head/orientation → display tick of the onset frame",
+                           "onset frame's tick → client", "/head/orientation → camera frame with the new view",
+                           "camera frame → scene perception out", "camera frame → first display tick of it")}
     with log.lock:
         heads, poses, scenes, frames = list(log.heads), list(log.poses), list(log.scenes), list(log.frames)
     sent_yaw = dict(zip(step_times, step_yaws))
@@ -192,16 +187,9 @@ def breakdown(log: ProbeLog, results, step_times, step_yaws, receipt, stamps, am
             continue
         t_head = head[0]
         out["client → /head/orientation"].append(1e3 * (t_head - r.sent))
-        before = [f for f in frames if f[0] < t_head]
-        if before:
-            ref = before[-1][2]
-            change = _first(frames, lambda f: f[0] >= t_head and f[2].shape == ref.shape
-                            and np.mean(f[2] != ref) > 0.05)
-            if change is not None:
-                out["head → first phosphene frame that changed"].append(1e3 * (change[0] - t_head))
-                rx = received(change[0])
-                if rx is not None:
-                    out["phosphene frame → client"].append(1e3 * (rx - change[0]))
+        if r.onset_s is not None:
+            out["/head/orientation → display tick of the onset frame"].append(1e3 * (r.onset_stamp - t_head))
+            out["onset frame's tick → client"].append(1e3 * (r.sent + r.onset_s - r.onset_stamp))
         pre_pose = [p for p in poses if p[0] < t_head]
         if not pre_pose:
             continue
@@ -210,13 +198,13 @@ def breakdown(log: ProbeLog, results, step_times, step_yaws, receipt, stamps, am
         if capture is None:
             continue
         t_cap = capture[0]
-        out["head → camera frame with the new view"].append(1e3 * (t_cap - t_head))
+        out["/head/orientation → camera frame with the new view"].append(1e3 * (t_cap - t_head))
         sc = _first(scenes, lambda s: s[0] >= t_cap - 1e-6)
         if sc is not None:
             out["camera frame → scene perception out"].append(1e3 * (sc[1] - t_cap))
         shown = _first(frames, lambda f: f[1] >= t_cap - 1e-6)
         if shown is not None:
-            out["camera frame → phosphene frame of it"].append(1e3 * (shown[0] - t_cap))
+            out["camera frame → first display tick of it"].append(1e3 * (shown[0] - t_cap))
     return out
 
 
@@ -321,13 +309,15 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     results, skipped = analyse_steps(receipt, stamps, frames, step_times)
     onset = [None if r.onset_s is None else 1e3 * r.onset_s for r in results]
     half = [None if r.half_s is None else 1e3 * r.half_s for r in results]
+    halfway = [None if r.halfway_s is None else 1e3 * r.halfway_s for r in results]
     print(f"  client: {report['frames']} frames at {report['fps']:.1f} fps ({report['formats']}), "
           f"{len(step_times)} steps sent, {len(results)} counted, {skipped} skipped (views alike)")
     print(f"  onset            [ms] {_stats(onset)}")
     print(f"  50 % of change   [ms] {_stats(half)}")
-    missing = sum(1 for r in results if r.half_s is None)
+    print(f"  half-way to the new view (dark does not count) [ms] {_stats(halfway)}")
+    missing = sum(1 for r in results if r.half_s is None or r.halfway_s is None)
     if missing:
-        print(f"  ({missing} steps never reached 50 % before the next step)")
+        print(f"  ({missing} steps never got there before the next step)")
     spv = re.search(r"spv: (\d+) display frames, (\d+) dropped, tick median ([\d.]+) ms", g.output)
     if spv:
         n, d = int(spv.group(1)), int(spv.group(2))
@@ -339,9 +329,8 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     if loads:
         print(f"  CPU while stepping (of one core): {', '.join(loads)}")
     print("  breakdown by stage (stamps carried by the messages):")
-    for name, values in breakdown(log, results, list(step_times), list(step_yaws), receipt, stamps,
-                                  args.amplitude).items():
-        print(f"    {name:42s} [ms] {_stats(values)}")
+    for name, values in breakdown(log, results, list(step_times), list(step_yaws), args.amplitude).items():
+        print(f"    {name:52s} [ms] {_stats(values)}")
     if any("spv.temporal:=true" == o for o in overrides):
         b_onset, b_half = temporal_build_up(log, results, ["bridge.port:=0", *overrides], graph_path)
         print(f"  the temporal model alone (same steps of levels, offline): onset [ms] {_stats(b_onset)}; "

@@ -6,15 +6,16 @@ phase of the camera and display clocks), and keeps every phosphene frame it rece
 4× by area averaging) with its receipt time. For each step, timed from the moment the first
 head message with the new yaw was sent:
 
-- **onset**: the first frame that clearly changes — its mean absolute difference from the last
-  frame before the step reaches :data:`ONSET_FRACTION` of the step's whole change and
-  :data:`NOISE_FACTOR` × the largest frame-to-frame difference while holding still;
-- **50 % of the change**: the first frame in which at least half of the new view's light has
-  arrived and at least half of the old view's light is gone. With P the settled frame before
-  the step and F after it, arrival = (⟨f,F⟩ − ⟨P,F⟩)/(⟨F,F⟩ − ⟨P,F⟩) and departure =
-  (⟨f,P⟩ − ⟨F,P⟩)/(⟨P,P⟩ − ⟨F,P⟩) on slightly blurred frames; a frame gone dark has
-  departed but not arrived, so it is not half of a change (a plain image difference would
-  call it 50 %).
+- **onset**: the first frame that clearly changes — its mean absolute difference d from the
+  last frame P before the step reaches :data:`ONSET_FRACTION` of the step's whole change
+  d(P, F) (F: the settled frames before the next step) and :data:`NOISE_FACTOR` × the largest
+  frame-to-frame difference while holding still;
+- **50 % of the change**: the first frame f with d(f, P) ≥ ½·d(P, F) — half of the step's
+  change has reached the display (the issue's probe);
+- **half-way to the new view**: the first frame with d(f, F) ≤ ½·d(P, F). It differs from the
+  above when part of the display goes dark: display-time reprojection shows what the last
+  camera frame did not see as dark, which changes the image at once but is not the new view
+  (between two views that share most of their light, a dark wedge is farther from either).
 
 Steps whose views hardly differ (less than :data:`MIN_CHANGE` grey levels or the noise) are
 not counted. Times are in the server's clock (offset NTP-style from ping/pong, as the
@@ -43,7 +44,7 @@ NOISE_FACTOR = 3.0          # … and this many times the largest still-frame di
 MIN_CHANGE = 1.0            # grey levels (mean absolute difference) for a step to count
 STILL_WINDOW_S = 0.3        # frames before a step that show it settled (noise, P)
 SETTLED_WINDOW_S = 0.25     # frames before the next step averaged into F
-BLUR_SIGMA = 2.0            # px of the reduced frames, before the arrival/departure projections
+HALF = 0.5
 
 
 @dataclass
@@ -79,41 +80,22 @@ class StepSchedule:
 
 @dataclass
 class StepResult:
-    """One step: ``sent`` [s, server clock], ``onset_s`` and ``half_s`` latencies (None when the
-    frames never showed it), and the image stamps of those frames [s]."""
+    """One step: ``sent`` [s, server clock], the step's ``change`` d(P, F) [grey levels], the
+    ``onset_s``, ``half_s`` (50 % of the change) and ``halfway_s`` (half-way to the new view)
+    latencies (None when the frames never showed it) and the image stamps of those frames [s]."""
 
     sent: float
     change: float
     onset_s: float | None = None
     half_s: float | None = None
+    halfway_s: float | None = None
     onset_stamp: float | None = None
     half_stamp: float | None = None
+    halfway_stamp: float | None = None
 
 
 def mean_abs_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean(np.abs(a.astype(np.float32) - b.astype(np.float32))))
-
-
-def _blur(image: np.ndarray) -> np.ndarray:
-    import cv2
-    return cv2.GaussianBlur(image.astype(np.float32), (0, 0), BLUR_SIGMA).ravel().astype(np.float64)
-
-
-def _projections(P_: np.ndarray, F: np.ndarray):
-    """Functions frame → arrival and frame → departure for settled frames P (before) and F (after)."""
-    p, f = _blur(P_), _blur(F)
-    pf, ff, pp = p @ f, f @ f, p @ p
-    scale = max(ff, pp, 1e-9)
-
-    def arrival(x: np.ndarray) -> float:
-        den = ff - pf
-        return 1.0 if den <= 1e-6 * scale else (x @ f - pf) / den
-
-    def departure(x: np.ndarray) -> float:
-        den = pp - pf
-        return 0.0 if den <= 1e-6 * scale else (x @ p - pf) / den
-
-    return arrival, departure
 
 
 def analyse_steps(receipt: np.ndarray, stamps: np.ndarray, frames: np.ndarray,
@@ -139,15 +121,16 @@ def analyse_steps(receipt: np.ndarray, stamps: np.ndarray, frames: np.ndarray,
             continue
         result = StepResult(float(ts), change)
         threshold = max(ONSET_FRACTION * change, NOISE_FACTOR * noise)
-        arrival, departure = _projections(pre, final)
         for i in after:
-            if result.onset_s is None and mean_abs_diff(frames[i], pre) >= threshold:
-                result.onset_s, result.onset_stamp = float(receipt[i] - ts), float(stamps[i])
-            if result.half_s is None:
-                x = _blur(frames[i])
-                if arrival(x) >= 0.5 and departure(x) <= 0.5:
-                    result.half_s, result.half_stamp = float(receipt[i] - ts), float(stamps[i])
-            if result.onset_s is not None and result.half_s is not None:
+            latency, stamp = float(receipt[i] - ts), float(stamps[i])
+            moved = mean_abs_diff(frames[i], pre)
+            if result.onset_s is None and moved >= threshold:
+                result.onset_s, result.onset_stamp = latency, stamp
+            if result.half_s is None and moved >= HALF * change:
+                result.half_s, result.half_stamp = latency, stamp
+            if result.halfway_s is None and mean_abs_diff(frames[i], final) <= HALF * change:
+                result.halfway_s, result.halfway_stamp = latency, stamp
+            if result.onset_s is not None and result.half_s is not None and result.halfway_s is not None:
                 break
         results.append(result)
     return results, skipped

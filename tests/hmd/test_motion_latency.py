@@ -31,10 +31,13 @@ def test_step_send_times_are_the_jumps_in_yaw():
 
 
 def patterns():
+    """Two views that share most of their light, like two walls: the same dim phosphenes
+    everywhere, bright ones on the left (before the turn) or on the right (after)."""
     a = np.zeros((40, 40), np.uint8)
-    b = np.zeros((40, 40), np.uint8)
-    a[5:35:4, 2:18:4] = 200                     # phosphenes on the left …
-    b[5:35:4, 22:38:4] = 200                    # … and on the right after the turn
+    a[1::4, 1::4] = 80
+    b = a.copy()
+    a[5:35:4, 1:18:4] = 220
+    b[5:35:4, 21:38:4] = 220
     return a, b
 
 
@@ -46,22 +49,31 @@ def timeline(events):
     return t, t.copy(), frames
 
 
-def test_a_dark_frame_is_an_onset_but_not_half_of_the_change():
+def test_onset_half_of_the_change_and_half_way_to_the_new_view():
     a, b = patterns()
-    partly = b.copy()
-    partly[:, 33:] = 0                          # 3 of its 4 columns of phosphenes arrived
-    t, stamps, frames = timeline({0.0: a, 1.04: np.zeros_like(a), 1.10: partly, 1.20: b})
+    turned = b.copy()
+    turned[:, 30:] = 0                     # re-projected: the new view where the last frame saw it, dark beyond
+    t, stamps, frames = timeline({0.0: a, 1.04: turned, 1.12: b})
     [r], skipped = analyse_steps(t, stamps, frames, np.array([1.0]))
-    assert skipped == 0
+    assert skipped == 0 and r.change == pytest.approx(np.abs(a.astype(float) - b).mean())
     assert r.onset_s == pytest.approx(0.04) and r.onset_stamp == pytest.approx(1.04)
-    assert r.half_s == pytest.approx(0.10)      # not the dark frame (a plain difference would say 0.04)
+    assert r.half_s == pytest.approx(0.04)          # most of the step's change is on the display at once
+    assert r.halfway_s == pytest.approx(0.04)       # and it is mostly the new view
 
 
-def test_superposed_views_are_not_half_a_change_until_the_old_one_fades():
+def test_a_frame_gone_dark_is_a_change_but_not_half_way_to_the_new_view():
     a, b = patterns()
-    t, stamps, frames = timeline({0.0: a, 1.06: np.maximum(a, b), 1.14: b})
+    t, stamps, frames = timeline({0.0: a, 1.04: np.zeros_like(a), 1.12: b})
     [r], _ = analyse_steps(t, stamps, frames, np.array([1.0]))
-    assert r.onset_s == pytest.approx(0.06) and r.half_s == pytest.approx(0.14)
+    assert r.onset_s == pytest.approx(0.04) and r.half_s == pytest.approx(0.04)
+    assert r.halfway_s == pytest.approx(0.12)
+
+
+def test_a_late_frame_is_late_by_every_measure():
+    a, b = patterns()
+    t, stamps, frames = timeline({0.0: a, 1.10: b})
+    [r], _ = analyse_steps(t, stamps, frames, np.array([1.0]))
+    assert r.onset_s == r.half_s == r.halfway_s == pytest.approx(0.10)
 
 
 def test_steps_between_alike_views_are_skipped():
@@ -104,4 +116,5 @@ def test_a_client_stepping_its_head_sees_the_server_follow():
     assert data["frames"].shape[1:] == (80, 80)                              # kept reduced 4×
     results, skipped = analyse_steps(data["receipt"], data["stamps"], data["frames"], data["step_times"])
     assert skipped == 0 and len(results) == 3
-    assert all(r.onset_s is not None and r.half_s is not None and r.onset_s <= r.half_s for r in results)
+    assert all(r.onset_s is not None and r.half_s is not None and r.halfway_s is not None
+               and r.onset_s <= r.half_s for r in results)
