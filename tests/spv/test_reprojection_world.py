@@ -14,7 +14,7 @@ from raspv_sim.avatar import AvatarConfig, head_quaternion
 from raspv_sim.simulator import SimConfig, Simulation
 from raspv_spv.config import spv_config
 from raspv_spv.frame_inputs import FrameInputs
-from raspv_spv.reprojection import ViewTracker, rotation_angle_deg
+from raspv_spv.reprojection import ViewTracker
 from raspv_spv.simulator import PhospheneSimulator
 
 PITCH = math.radians(35.0)          # looking down at the floor ahead

@@ -7,8 +7,8 @@ Four phosphene images (optimist preset, Chess-Floor on real scene perception of 
 depth): the camera frame at head yaw 0; what the display showed at head yaw 12° until the next
 camera frame before reprojection (the same image: the tiles swim with the head); the same frame
 re-projected to the turned head (raspv_spv.reprojection, what the spv node shows now); and the
-frame rendered at the turned head, for comparison. Dark wedge: the part of the turned view the
-camera frame (60° + 10° margin) did not see.
+frame rendered at the turned head, for comparison. The 12° turn stays inside the camera's 10°
+margin plus the part of its 60° the 45° prosthesis field does not use.
 """
 from __future__ import annotations
 
@@ -21,7 +21,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
