@@ -156,12 +156,15 @@ class ViewTracker:
 @dataclass(frozen=True)
 class DisplayFrame:
     """A camera frame the display can show: its capture ``stamp`` [s], ``inputs``, the
-    ``levels`` its mode gave at the capture orientation, and the map they belong to."""
+    ``levels`` its mode gave at the capture orientation, the map they belong to, and the
+    ``simulator`` that computed them (after a run-time change the display re-runs the new
+    mode on the frame instead of showing the old mode's levels)."""
 
     stamp: float
     inputs: FrameInputs
     levels: np.ndarray
     map_id: int
+    simulator: object = None
 
 
 class FrameHistory:
@@ -208,7 +211,8 @@ class DisplayView:
     The node feeds poses into :attr:`tracker` and frames with :meth:`add_frame`, and asks
     :meth:`levels_at` at every tick. A turn re-runs the mode on the frame with turned rays
     (the mode's per-frame work is cached in the frame's inputs), only when the view turned by
-    more than :data:`MIN_TURN_DEG` since the last time.
+    more than :data:`MIN_TURN_DEG` since the last time; so does a new simulator (a mode or
+    setting changed at run time), so the change shows on the last frame at once.
     """
 
     def __init__(self, reprojection: bool = True, latency_ms: float = 0.0) -> None:
@@ -216,7 +220,7 @@ class DisplayView:
         self.latency_s = latency_ms / 1000.0
         self.tracker = ViewTracker(history_s=max(HISTORY_S, self.latency_s + 1.0))
         self.frames = FrameHistory()
-        self._last: tuple[object, DisplayFrame, np.ndarray, np.ndarray] | None = None
+        self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
 
     def configure(self, reprojection: bool, latency_ms: float) -> None:
@@ -229,22 +233,32 @@ class DisplayView:
     def levels_at(self, sim, map_id: int, display_stamp: float) -> tuple[np.ndarray, float] | None:
         """(levels (N,) uint8, the frame's capture stamp) to show at ``display_stamp`` with
         simulator ``sim`` (a :class:`~raspv_spv.simulator.PhospheneSimulator`) and map
-        ``map_id``; None when no frame of this map is due yet."""
+        ``map_id``; None when no frame of this map is due yet, or the current mode cannot run
+        on it (a scene mode switched on before the scene arrived)."""
         frame = self.frames.pick(display_stamp, self.latency_s)
         if frame is None or frame.map_id != map_id or frame.levels.shape != (sim.count,):
             return None
-        if not self.reprojection:
-            return frame.levels, frame.stamp
-        R = self.tracker.capture_from_display(frame.stamp, display_stamp - self.latency_s)
-        if R is None or rotation_angle_deg(R) < MIN_TURN_DEG:
-            return frame.levels, frame.stamp
+        R = None
+        if self.reprojection:
+            R = self.tracker.capture_from_display(frame.stamp, display_stamp - self.latency_s)
+            if R is not None and rotation_angle_deg(R) < MIN_TURN_DEG:
+                R = None
+        if R is None and (frame.simulator is sim or frame.simulator is None):
+            return frame.levels, frame.stamp                     # as captured, by this very mode
         last = self._last
-        if last is not None and last[0] is sim and last[1] is frame and rotation_angle_deg(last[2].T @ R) < MIN_TURN_DEG:
+        if last is not None and last[0] is sim and last[1] is frame and _same_turn(last[2], R):
             return last[3], frame.stamp
         try:
             levels = sim.levels(frame.inputs, capture_from_display=R)
-        except ValueError:                  # the simulator changed to a mode this frame cannot feed
-            return frame.levels, frame.stamp
+        except ValueError:              # a mode this frame cannot feed (InputError is a ValueError)
+            return (frame.levels, frame.stamp) if frame.simulator in (sim, None) else None
         self._last = (sim, frame, R, levels)
-        self.turned_ticks += 1
+        if R is not None:
+            self.turned_ticks += 1
         return levels, frame.stamp
+
+
+def _same_turn(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return rotation_angle_deg(a.T @ b) < MIN_TURN_DEG

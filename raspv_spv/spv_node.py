@@ -260,8 +260,13 @@ class SpvNode(RaspvNode):
                 self.warn_throttled("no-info", f"images arrive but no camera info on {topics.CAMERA_INFO}; "
                                                "phosphenes stay off until it comes")
             return
-        inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
-                             scene=self.scene, scene_labels=self.scene_labels, extras=dict(self.extras))
+        stamp = self.stamps[which]
+
+        def of_this_frame(name: str, value):          # scene outputs of another depth frame stay out
+            return value if abs(self.stamps[name] - stamp) <= POSE_TOLERANCE_S else None
+        inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=stamp,
+                             scene=of_this_frame("scene", self.scene),
+                             scene_labels=of_this_frame("scene_labels", self.scene_labels), extras=dict(self.extras))
         if self._pending is not None:               # its pose never came: it goes with the pose there is
             self._finish_frame(self._pending)
         newest_pose = self.view.tracker.newest_camera_pose_stamp()
@@ -290,7 +295,7 @@ class SpvNode(RaspvNode):
         except InputError as exc:
             self.warn_throttled("input", f"cannot use this frame: {exc}")
             return
-        self.view.add_frame(DisplayFrame(inputs.stamp, inputs, levels, map_id))
+        self.view.add_frame(DisplayFrame(inputs.stamp, inputs, levels, map_id, sim))
 
     # -- display ------------------------------------------------------------------------------
     def tick(self) -> None:

@@ -235,15 +235,30 @@ def test_device_latency_shows_the_scene_as_captured_that_long_ago(sim):
     assert np.array_equal(levels, sim.levels(inputs[1.20], capture_from_display=R))
 
 
-def test_a_mode_the_frame_cannot_feed_falls_back_to_the_captured_levels():
+def test_a_turn_the_mode_cannot_compute_shows_the_frame_as_captured():
     chess = PhospheneSimulator(spv_config("optimist", width=400, mode="chess_floor", temporal=False))
     view = DisplayView()
     inputs = FrameInputs(color=textured(K), camera=K, stamp=1.0)          # no scene: chess cannot run
     captured = np.zeros(chess.count, np.uint8)
-    view.add_frame(DisplayFrame(1.0, inputs, captured, 1))
+    view.add_frame(DisplayFrame(1.0, inputs, captured, 1, chess))
     view.tracker.add_head(0.9, head_q(0.0))
+    view.tracker.add_head(1.0, head_q(0.0))
     view.tracker.add_head(1.01, head_q(5.0))
     assert view.levels_at(chess, 1, 1.02)[0] is captured
+
+
+def test_a_mode_changed_at_run_time_shows_on_the_last_frame_at_once(sim):
+    """The display re-runs the new simulator on the frame it has (the next camera frame may be
+    50 ms away), and shows nothing rather than the old mode's levels when it cannot."""
+    view = DisplayView()
+    inputs = FrameInputs(color=textured(K), camera=K, stamp=1.0)
+    view.add_frame(DisplayFrame(1.0, inputs, sim.levels(inputs), 1, sim))
+    edges = PhospheneSimulator(spv_config("optimist", width=400, mode="edges", temporal=False))
+    levels, stamp = view.levels_at(edges, 1, 1.02)
+    assert stamp == 1.0 and np.array_equal(levels, edges.levels(inputs))
+    assert view.levels_at(edges, 1, 1.04)[0] is levels                  # computed once
+    chess = PhospheneSimulator(spv_config("optimist", width=400, mode="chess_floor", temporal=False))
+    assert view.levels_at(chess, 1, 1.06) is None                       # no scene in this frame yet
 
 
 def test_sampling_built_without_a_turn_has_no_rotation():
