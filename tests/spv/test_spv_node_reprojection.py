@@ -109,6 +109,8 @@ def test_display_turns_the_last_frame_with_the_head_and_waits_the_device_latency
     # a device with 300 ms between capture and display: a new frame is shown 300 ms after its stamp
     [(_, ok, _)] = probe.set_params("spv", {"device_latency_ms": 300.0})
     assert ok
+    # (once the frame shown now is older than that: a younger one is not shown yet, the display is dark)
+    frames.wait(1, timeout=30, predicate=lambda f: of(t0)(f) and stamp_to_seconds(f.header.stamp) > t0 + 0.35)
     t1 = src.frame()
     first = frames.wait(1, timeout=30, predicate=of(t1))[0]
     assert stamp_to_seconds(first.header.stamp) >= t1 + 0.3 - 1e-3
