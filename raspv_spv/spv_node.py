@@ -8,9 +8,13 @@ A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) 
 temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
 waits for a camera frame, and ticks it could not run on time are counted as dropped frames
 (the temporal model then advances by the frames that elapsed) and reported every 10 s.
-``/spv/map`` is latched and re-published whenever the map changes. Parameter changes build a
-complete new simulator and swap it in, or are refused with the reason; bad input images are
-skipped with one rate-limited warning.
+``/spv/map`` is latched and re-published whenever the map changes. A parameter change is
+checked at once (map, implant layout, sprite model, mode: refused with the reason when it
+cannot be built) and the new simulator — sprites and temporal table can take seconds the first
+time — is built in the background (:mod:`raspv_spv.background_build`) while the old one keeps
+displaying; it is swapped in between two display ticks, with levels already computed from the
+latest frame, so the display never stalls. Bad input images are skipped with one rate-limited
+warning.
 """
 from __future__ import annotations
 
@@ -37,11 +41,14 @@ from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_msgs.msg import StairDetection
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
-from raspv_spv.config import config_from_node_params
+from rclpy.parameter import Parameter
+
+from raspv_spv.background_build import BackgroundBuilder
+from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
-from raspv_spv.phosphene_map import MapError
-from raspv_spv.simulator import InputError, PhospheneSimulator
+from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
+from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, describe_layout, describe_sprites
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
@@ -53,11 +60,31 @@ def _reason(exc: Exception) -> str:
     return str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
 
 
-def build_simulator(params: dict) -> PhospheneSimulator:
-    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
+def checked_config(params: dict) -> tuple[SpvConfig, PhospheneMapCore]:
+    """The configuration and map of the node's parameter values, checked (raises one of
+    ``_BUILD_ERRORS``); quick — what takes long is left to :class:`PhospheneSimulator`."""
     if params["edge_low"] > params["edge_high"]:
         raise ValueError(f"edge_low ({params['edge_low']}) must not exceed edge_high ({params['edge_high']})")
-    return PhospheneSimulator(config_from_node_params(params))
+    config = config_from_node_params(params)
+    return config, check_config(config)
+
+
+def build_simulator(params: dict) -> PhospheneSimulator:
+    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
+    config, phosphene_map = checked_config(params)
+    return PhospheneSimulator(config, phosphene_map=phosphene_map)
+
+
+@dataclass
+class _Rebuild:
+    """A checked parameter change waiting for its simulator (built in the background)."""
+
+    params: dict
+    config: SpvConfig
+    phosphene_map: PhospheneMapCore
+    map_id: int
+    sim: PhospheneSimulator | None = None
+    levels: tuple[int, np.ndarray, float] | None = None
 
 
 class SpvNode(RaspvNode):
@@ -69,6 +96,13 @@ class SpvNode(RaspvNode):
             raise ConfigurationError(_reason(exc)) from None
         self.map_id = 1
         self._sim_lock = threading.Lock()
+        # run-time changes: checked at once, built in the background, swapped in by _swap_in
+        self._applied_params = dict(self.params)
+        self._requested = (self.sim.config.map_spec(), self.map_id)
+        self._swap_pending = self._map_pending = False     # ROS-side follow-ups of a swap
+        self._failed: tuple[_Rebuild, Exception] | None = None
+        self._builder = BackgroundBuilder(self._build, self._swap_in, self._build_failed, name="spv-build")
+        self._after_build = self.create_guard_condition(self._on_build_done)
         # latest inputs and the levels computed from them
         self.color = self.depth = self.pose = None
         self.scene = self.scene_labels = None          # scene perception (scene modes)
@@ -101,31 +135,85 @@ class SpvNode(RaspvNode):
     # -- configuration ------------------------------------------------------------------------
     def _describe(self, sim: PhospheneSimulator) -> str:
         c = sim.config
-        return (f"{c.device.name}: {sim.count} {c.device.grid} phosphenes ({c.device.field} field), "
-                f"FOV {c.device.fov_deg:g} deg, phosphene {c.device.phosphene_fov_deg:g} deg, {c.width}x{c.height} "
+        return (f"{c.device.name}: {sim.count} {describe_layout(sim)} phosphenes, "
+                f"FOV {c.device.fov_deg:g} deg, {describe_sprites(sim)}, {c.width}x{c.height} "
                 f"{c.output_format}, mode {c.mode}, temporal {c.temporal_model if c.temporal else 'off'}, "
                 f"{c.frame_rate:g} Hz")
 
     def on_parameters(self, changes):
         merged = {**self.params, **changes}
         try:
-            new = build_simulator(merged)
+            config, phosphene_map = checked_config(merged)
         except _BUILD_ERRORS as exc:
             return _reason(exc)
-        old = self.sim
-        map_changed = new.config.map_spec() != old.config.map_spec()
-        with self._sim_lock:
-            new.adopt_state(old)
-            if map_changed:
-                self.map_id += 1
-            self.sim = new
+        spec, map_id = self._requested
+        if config.map_spec() != spec:                # one map id per accepted change of the map
+            map_id += 1
+        self._requested = (config.map_spec(), map_id)
+        self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
-        self._update_subscriptions(new.needs)
-        if map_changed:
-            self.publish_map()
-        self.get_logger().info(self._describe(new))
         return None
+
+    # -- background rebuild (worker thread) ---------------------------------------------------
+    def _build(self, request: _Rebuild) -> _Rebuild:
+        """Build the new simulator and its levels for the latest frame, so the swap shows the
+        new configuration at once instead of blank phosphenes until the next camera frame."""
+        request.sim = PhospheneSimulator(request.config, phosphene_map=request.phosphene_map)
+        inputs = self._latest_inputs(request.sim)
+        if inputs is not None:
+            try:
+                request.levels = (request.map_id, request.sim.levels(inputs[0]), inputs[1])
+            except InputError:
+                pass
+        return request
+
+    def _swap_in(self, request: _Rebuild, _result) -> None:
+        with self._sim_lock:
+            old = self.sim
+            request.sim.adopt_state(old)
+            map_changed = request.map_id != self.map_id
+            self.sim, self.map_id = request.sim, request.map_id
+            if request.levels is not None:
+                self._levels = request.levels
+            self._applied_params = dict(request.params)
+            self._swap_pending = True
+            self._map_pending |= map_changed
+        self._after_build.trigger()
+
+    def _build_failed(self, request: _Rebuild, exc: Exception) -> None:
+        self._failed = (request, exc)
+        self._after_build.trigger()
+
+    def _on_build_done(self) -> None:
+        """Executor thread: subscriptions, /spv/map and the log after a swap; after a failed
+        build, the parameters go back to the values on display."""
+        with self._sim_lock:
+            swapped, publish = self._swap_pending, self._map_pending
+            self._swap_pending = self._map_pending = False
+        if swapped:
+            self._update_subscriptions(self.sim.needs)
+            if publish:
+                self.publish_map()
+            self.get_logger().info(self._describe(self.sim))
+        failed, self._failed = self._failed, None
+        if failed is not None:
+            request, exc = failed
+            self.get_logger().error(f"could not build {request.config.device.name}: {exc}; "
+                                    f"keeping {self.sim.config.device.name}")
+            back = {k: v for k, v in self._applied_params.items() if self.params.get(k) != v}
+            if back:
+                self.set_parameters([Parameter(k, value=v) for k, v in back.items()])
+
+    def _latest_inputs(self, sim: PhospheneSimulator) -> tuple[FrameInputs, float] | None:
+        """The latest frame's inputs for ``sim`` and their stamp, or None before any frame."""
+        main = "color" if "color" in sim.needs else "depth"
+        if self.intrinsics is None or getattr(self, main) is None:
+            return None
+        inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[main],
+                             camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels,
+                             extras=dict(self.extras))
+        return inputs, self.stamps[main]
 
     def _update_subscriptions(self, needs: frozenset[str]) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional), and only those."""
@@ -229,7 +317,9 @@ class SpvNode(RaspvNode):
         except InputError as exc:
             self.warn_throttled("input", f"cannot use this frame: {exc}")
             return
-        self._levels = (map_id, levels, self.stamps[which])
+        with self._sim_lock:
+            if self.sim is sim:                     # not swapped meanwhile (its levels would be blank)
+                self._levels = (map_id, levels, self.stamps[which])
 
     # -- display ------------------------------------------------------------------------------
     def tick(self) -> None:
@@ -314,6 +404,7 @@ class SpvNode(RaspvNode):
         self.pub_map.publish(msg)
 
     def close(self) -> None:
+        self._builder.close()
         self._stop_display.set()
         self._display_thread.join(timeout=2.0)
         # rclpy's context may already be shut down here: report with print, not the ROS logger

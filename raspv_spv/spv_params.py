@@ -9,7 +9,8 @@ from raspv_common.params import Param
 from raspv_spv.modes import MODES, OVERLAYS
 
 PARAMS = [
-    Param("device", "default", "device preset (default, argus_ii, argus_iii, alpha_ims, optimist) or a device YAML path"),
+    Param("device", "default", "device preset (default, argus_ii, argus_ii_axon, alpha_ims, prima, orion, ... see "
+          "config/devices) or a device YAML path"),
     Param("num_phosphenes", 0, "number of phosphenes N (0: the device's)", minimum=0, maximum=20000),
     Param("fov_deg", 0.0, "prosthesis horizontal field of view (0: the device's)", minimum=0.0, maximum=160.0, unit="deg"),
     Param("phosphene_fov_deg", 0.0, "phosphene diameter (0: the device's)", minimum=0.0, maximum=10.0, unit="deg"),
@@ -33,6 +34,13 @@ PARAMS = [
     Param("pulse_amplitude_ua", 0.0, "biphasic pulse amplitude of an 'on' frame (0: the device's)", minimum=0.0,
           maximum=2000.0, unit="uA"),
     Param("pulse_phase_ms", 0.0, "duration of each pulse phase (0: the device's)", minimum=0.0, maximum=5.0, unit="ms"),
+    Param("layout", "", "implant electrode layout (config/layouts name or YAML path; '': the device's)"),
+    Param("sprite_model", "", "phosphene shape ('': the device's)",
+          choices=("", "gaussian", "scoreboard", "axon_map", "biphasic_axon_map", "dynaphos")),
+    Param("rho_um", 0.0, "current spread of the tissue sprite models (0: the device's)", minimum=0.0, maximum=10000.0,
+          unit="um"),
+    Param("axlambda_um", 0.0, "axon-map decay along the axon (0: the device's)", minimum=0.0, maximum=10000.0,
+          unit="um"),
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("output_format", "mono8", "/spv/image encoding: mono8, or green (rgb8, green channel only, for headsets)",
           choices=("mono8", "green")),

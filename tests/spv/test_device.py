@@ -49,7 +49,7 @@ def test_bad_device_files_get_one_clear_error(tmp_path, text, message):
 
 
 def test_unknown_preset_lists_the_presets():
-    with pytest.raises(DeviceError, match="unknown device preset 'argus_iv'; presets: alpha_ims, argus_ii"):
+    with pytest.raises(DeviceError, match="unknown device preset 'argus_iv'; presets: alpha_ims, alpha_ims_implant, argus_ii"):
         load_device("argus_iv")
     with pytest.raises(DeviceError, match="does not exist"):
         load_device("/nonexistent/device.yaml")

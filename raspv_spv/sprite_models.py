@@ -1,0 +1,336 @@
+"""Sprite models: the shape of every phosphene, precomputed for the sparse renderer (no ROS).
+
+A model turns a built :class:`~raspv_spv.phosphene_map.PhospheneMap` into a
+:class:`SpriteBank`: a sparse matrix whose column i is phosphene i's image (×255), so the
+per-frame cost is one sparse product whatever the shape (:mod:`raspv_spv.renderer`).
+
+| model | shape | from | parameters |
+|---|---|---|---|
+| ``gaussian`` | the paper's round spot of ``phosphene_fov_deg`` | RASPV Appendix A | — |
+| ``scoreboard`` | exp(−d²/2ρ²) on the retina or cortex | Beyeler 2019; pulse2percept ``ScoreboardModel`` | ρ (µm; default half the electrode pitch) |
+| ``axon_map`` | streaks along the nerve-fibre bundles | Beyeler 2019; pulse2percept ``AxonMapModel`` | ρ (300), λ (500 µm), eye |
+| ``biphasic_axon_map`` | axon map whose size, streak and brightness follow the pulse | Granley & Beyeler 2021; ``BiphasicAxonMapModel`` | ρ, λ, top amplitude (xTh), phase (ms), rate (Hz) |
+| ``dynaphos`` | round, σ = 0.5·√(I/675 µA)/M(e) dva | van der Grinten 2024; dynaphos ``GaussianSimulator`` | current of the top level (µA) |
+
+``biphasic_axon_map`` and ``dynaphos`` draw one sprite per level (a brighter level is a
+larger current, so a bigger phosphene): column i·L + (l − 1) for level l of L = N_L − 1.
+Every other model has one column per phosphene, scaled by its level. Sprites are normalised
+to the model's peak (1 for a unit stimulus; the top level's F_bright for the biphasic model)
+and values below 1e-3 of it (a quarter of a grey level) are dropped. Tissue sprites overlap
+far more than the paper's (an Argus II streak crosses several electrodes), and a saturating
+sum would turn a lit array into a white blob with no shape left; so the bank is scaled so
+that every phosphene at the top level together reaches exactly white (the brightest the
+array can make), and shapes stay visible where they overlap. A lone phosphene is then dimmer
+than white by that factor (``SpriteBank.gain``, ≈ 1/2.6 for Argus II with ρ 300, λ 1000 µm).
+
+The scoreboard's default ρ is half the median electrode pitch on the tissue, so neighbouring
+phosphenes just touch (13 % of a phosphene's peak one pitch away): pulse2percept's fixed
+100 µm (retina) / 200 µm (cortex) would blur Alpha-IMS' 72 µm pixels into one blob and shrink
+Orion's 4.2 mm-spaced discs to dots. Set ``rho_um`` to choose.
+
+Tissue models are smooth on the scale of their narrowest spread σ (ρ, λ, or dynaphos' σ),
+so they are sampled on a grid ``scale`` times coarser than the image (σ ≥ 4 coarse pixels,
+``scale`` ≤ 8) and interpolated bilinearly when rendered: the interpolation error of a
+Gaussian sampled every σ/4 is below 1 % of its peak (h²/8·max|f''| = 1/128), while the
+matrix and the per-frame product shrink by ``scale``². Banks that take long to build are
+cached on disk under ``$RASPV_CACHE_DIR/sprites`` (default ``~/.cache/raspv``), named by a hash
+of everything they depend on.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from raspv_spv.axon_map import AxonBundles, AxonMapParams, axon_sprites, blend_meridian
+from raspv_spv.biphasic_axon_map import GranleyEffects, biphasic_axon_sprites, level_amplitudes_xth
+from raspv_spv.phosphene_map import PhospheneMap
+from raspv_spv.retinotopy import CORTICAL_MAPS, image_to_visual_field, watson_um_per_deg
+from raspv_spv.sprites import GaussianSprite, Sprite
+from raspv_spv.tissue_sprites import (cortical_scoreboard_sprites, dynaphos_sigma_deg, dynaphos_sprites,
+                                      retinal_scoreboard_sprites)
+
+SPRITE_MODELS = ("gaussian", "scoreboard", "axon_map", "biphasic_axon_map", "dynaphos")
+LEVELLED_MODELS = ("biphasic_axon_map", "dynaphos")
+MIN_WEIGHT = 1e-3
+MAX_SCALE = 8
+SIGMA_COARSE_PX = 4.0
+AXON_BLEND_DEG = 1.0        # pulse2percept AxonMapModel meridian_blend (horizontal meridian)
+CORTEX_BLEND_DEG = 0.1      # pulse2percept cortical ScoreboardModel meridian_blend (vertical meridian)
+_FORMAT_VERSION = 2
+
+
+class SpriteModelError(ValueError):
+    """A sprite model that cannot be built for this map."""
+
+
+@dataclass(frozen=True)
+class SpriteSpec:
+    """Which sprite model and its parameters. ``rho_um`` / ``axlambda_um`` 0: the model's
+    default. ``max_amplitude_xth``: the top level's pulse amplitude (multiples of threshold,
+    biphasic model); ``pulse_phase_ms`` and ``pulse_rate_hz`` the pulses (biphasic model);
+    ``current_ua``: the top level's current (dynaphos)."""
+
+    model: str = "gaussian"
+    rho_um: float = 0.0
+    axlambda_um: float = 0.0
+    eye: str = "right"
+    num_levels: int = 8
+    max_amplitude_xth: float = 3.0
+    pulse_phase_ms: float = 0.45
+    pulse_rate_hz: float = 50.0
+    current_ua: float = 100.0
+
+    def __post_init__(self) -> None:
+        if self.model not in SPRITE_MODELS:
+            raise SpriteModelError(f"sprite model must be one of {', '.join(SPRITE_MODELS)}, got {self.model!r}")
+        for name in ("rho_um", "axlambda_um"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise SpriteModelError(f"{name} must be >= 0 (0: the model's default), got {v}")
+        if self.model == "axon_map" or self.model == "biphasic_axon_map":
+            if 0 < self.axlambda_um < 10:
+                raise SpriteModelError(f"axlambda must be >= 10 µm for the axon map (use scoreboard below), "
+                                       f"got {self.axlambda_um}")
+        if not (math.isfinite(self.max_amplitude_xth) and self.max_amplitude_xth >= 1):
+            raise SpriteModelError(f"max_amplitude_xth must be >= 1 (threshold), got {self.max_amplitude_xth}")
+
+    @property
+    def levelled(self) -> bool:
+        return self.model in LEVELLED_MODELS
+
+    def rho(self, target: str, phosphene_map: PhospheneMap | None = None) -> float:
+        """ρ (µm) with the model default filled in: 300 for the axon maps (pulse2percept's),
+        half the electrode pitch of ``phosphene_map`` for the scoreboard (pulse2percept's 100 on
+        the retina, 200 on the cortex without a map)."""
+        if self.rho_um > 0:
+            return self.rho_um
+        if self.model == "scoreboard":
+            if phosphene_map is None:
+                return 100.0 if target == "retina" else 200.0
+            return 0.5 * electrode_pitch_um(phosphene_map)
+        return 300.0
+
+    def axlambda(self) -> float:
+        return self.axlambda_um if self.axlambda_um > 0 else 500.0
+
+    def check(self, phosphene_map: PhospheneMap) -> None:
+        """Raise :class:`SpriteModelError` when this model cannot draw ``phosphene_map``."""
+        target = phosphene_map.target
+        if self.model in ("axon_map", "biphasic_axon_map") and target != "retina":
+            raise SpriteModelError(f"the {self.model} model needs a retinal layout; "
+                                   f"{phosphene_map.implant.layout.name} is cortical (use scoreboard or dynaphos)")
+        if self.model == "scoreboard" and target == "cortex" and phosphene_map.implant is None:
+            raise SpriteModelError("cortical scoreboard needs a cortical layout")
+        if self.model != "gaussian" and phosphene_map.spec.noise_px > 0:
+            raise SpriteModelError(f"position noise applies to the gaussian sprite model only; the {self.model} "
+                                   "model draws each phosphene from its electrode's position")
+        if self.levelled and self.num_levels < 2:
+            raise SpriteModelError("a levelled sprite model needs at least 2 levels")
+
+
+@dataclass
+class SpriteBank:
+    """Precomputed sprites: ``matrix`` (coarse pixels × N·levels, CSC float32, values ×255) on
+    a grid ``scale`` times coarser than the ``width`` × ``height`` image; ``levels`` sprites
+    per phosphene (1: one sprite scaled by the level)."""
+
+    matrix: sp.csc_matrix
+    width: int
+    height: int
+    scale: int = 1
+    levels: int = 1
+    build_s: float = 0.0
+    cached: bool = False
+    gain: float = 1.0          # the scale applied so the whole array at the top level is white
+
+    @property
+    def coarse_shape(self) -> tuple[int, int]:
+        """(rows, cols) of the grid the matrix is sampled on."""
+        return -(-self.height // self.scale), -(-self.width // self.scale)
+
+    @property
+    def nbytes(self) -> int:
+        m = self.matrix
+        return int(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes)
+
+
+def electrode_pitch_um(phosphene_map: PhospheneMap) -> float:
+    """Median distance (µm) from each electrode to its nearest neighbour on the tissue."""
+    xy = phosphene_map.electrodes_um
+    if len(xy) < 2:
+        return 200.0
+    d, _ = cKDTree(xy).query(xy, k=2)
+    return float(np.median(d[:, 1]))
+
+
+def coarse_grid_deg(phosphene_map: PhospheneMap, scale: int) -> tuple[np.ndarray, np.ndarray]:
+    """Visual-field position (dva) of the centres of the ``scale``-times coarser grid over the
+    phosphene image, (rows, cols) each."""
+    h, w = -(-phosphene_map.height // scale), -(-phosphene_map.width // scale)
+    u = (np.arange(w) + 0.5) * scale
+    v = (np.arange(h) + 0.5) * scale
+    uu, vv = np.meshgrid(u, v, indexing="xy")
+    return image_to_visual_field(uu, vv, phosphene_map.focal_px, phosphene_map.width / 2.0, phosphene_map.height / 2.0)
+
+
+def narrowest_spread_deg(phosphene_map: PhospheneMap, spec: SpriteSpec) -> float:
+    """The smallest spatial spread σ (dva) of any phosphene inside the image (or of all, if
+    none is): what the sampling grid must resolve."""
+    m = phosphene_map
+    inside = ((m.centres[:, 0] >= 0) & (m.centres[:, 0] < m.width) & (m.centres[:, 1] >= 0)
+              & (m.centres[:, 1] < m.height))
+    deg = m.centres_deg[inside] if inside.any() else m.centres_deg
+    ecc = np.hypot(deg[:, 0], deg[:, 1])
+    target = m.target
+    if spec.model == "dynaphos":
+        cmap = m.implant.cortical_map if m.implant is not None else CORTICAL_MAPS["dynaphos"]
+        sig = dynaphos_sigma_deg(deg, spec.current_ua * 1e-6 / (spec.num_levels - 1), cmap)
+        return float(np.nanmin(sig))
+    rho = spec.rho(target, m)
+    spread = rho
+    if spec.model in ("axon_map", "biphasic_axon_map"):
+        spread = min(rho, spec.axlambda())
+        if spec.model == "biphasic_axon_map":
+            g = GranleyEffects()
+            amps = level_amplitudes_xth(spec.num_levels, spec.max_amplitude_xth)
+            f_size = float(np.min(g.size(amps, spec.pulse_phase_ms, rho)))
+            f_streak = float(g.streak(spec.pulse_phase_ms, spec.axlambda()))
+            spread = min(rho * math.sqrt(f_size), spec.axlambda() * math.sqrt(f_streak))
+    if target == "cortex":
+        return float(np.nanmin(spread / 1000.0 / m.implant.cortical_map.magnification(ecc)))
+    return float(np.min(spread / watson_um_per_deg(ecc)))
+
+
+def render_scale(phosphene_map: PhospheneMap, spec: SpriteSpec) -> int:
+    """How much coarser than the image the sprites can be sampled (1 for the paper's sprite)."""
+    if spec.model == "gaussian":
+        return 1
+    sigma_px = narrowest_spread_deg(phosphene_map, spec) * math.pi / 180.0 * phosphene_map.focal_px
+    return int(min(MAX_SCALE, max(1, math.floor(sigma_px / SIGMA_COARSE_PX))))
+
+
+def model_sprites(phosphene_map: PhospheneMap, spec: SpriteSpec, x_deg: np.ndarray, y_deg: np.ndarray,
+                  min_weight: float = MIN_WEIGHT) -> sp.csc_matrix:
+    """Sparse (points, N·levels) sprites of a tissue model evaluated on a grid (rows, cols) of
+    visual-field points (dva), normalised to the model's peak — what the renderer samples and
+    what the tests compare with pulse2percept and dynaphos."""
+    m = phosphene_map
+    shape = np.shape(x_deg)
+    electrodes = m.electrodes_um
+    target = m.target
+    rho = spec.rho(target, m)
+    if spec.model == "scoreboard":
+        if target == "cortex":
+            s = cortical_scoreboard_sprites(x_deg, y_deg, electrodes, rho, m.implant.cortical_map, min_weight)
+            return blend_meridian(s, shape, x_deg, CORTEX_BLEND_DEG, axis=1)
+        return retinal_scoreboard_sprites(x_deg, y_deg, electrodes, rho, min_weight)
+    if spec.model == "dynaphos":
+        cmap = m.implant.cortical_map if m.implant is not None else CORTICAL_MAPS["dynaphos"]
+        levels = np.arange(1, spec.num_levels) / (spec.num_levels - 1)
+        return dynaphos_sprites(x_deg, y_deg, m.centres_deg, spec.current_ua * 1e-6 * levels, levels, cmap, min_weight)
+    params = AxonMapParams(rho_um=rho, axlambda_um=spec.axlambda(), eye=spec.eye)
+    x_range = (float(np.min(x_deg)), float(np.max(x_deg)))
+    y_range = (float(np.min(y_deg)), float(np.max(y_deg)))
+    axons = AxonBundles(params, x_range, y_range).axons(x_deg, y_deg)
+    if spec.model == "axon_map":
+        s = axon_sprites(axons, electrodes, rho, min_weight=min_weight)
+    else:
+        amps = level_amplitudes_xth(spec.num_levels, spec.max_amplitude_xth)
+        s = biphasic_axon_sprites(axons, electrodes, rho, spec.axlambda(), amps, spec.pulse_rate_hz,
+                                  spec.pulse_phase_ms, min_weight=min_weight)
+        s = s * (1.0 / float(GranleyEffects().brightness(spec.pulse_rate_hz, amps[-1], spec.pulse_phase_ms)))
+    return blend_meridian(sp.csc_matrix(s), shape, y_deg, AXON_BLEND_DEG, axis=0)
+
+
+def build_sprite_bank(phosphene_map: PhospheneMap, spec: SpriteSpec, use_cache: bool = True) -> SpriteBank:
+    """The sprites of ``phosphene_map`` drawn by ``spec``'s model (from the disk cache when a
+    tissue model was built before with the same inputs)."""
+    spec.check(phosphene_map)
+    m = phosphene_map
+    t0 = time.perf_counter()
+    if spec.model == "gaussian":
+        from raspv_spv.renderer import sprite_matrix
+
+        matrix = sprite_matrix(m.display_centres, np.ones(m.count, bool), m.width, m.height,
+                               GaussianSprite(m.diameter_px))
+        return SpriteBank(matrix, m.width, m.height, 1, 1, time.perf_counter() - t0)
+    scale = render_scale(m, spec)
+    levels = spec.num_levels - 1 if spec.levelled else 1
+    path = _cache_path(m, spec, scale) if use_cache else None
+    if path is not None and path.exists():
+        bank = _load(path, m, scale, levels)
+        if bank is not None:
+            bank.build_s = time.perf_counter() - t0
+            return bank
+    x, y = coarse_grid_deg(m, scale)
+    sprites = sp.csc_matrix(model_sprites(m, spec, x, y), dtype=np.float32)
+    top = np.zeros(sprites.shape[1], np.float32)
+    top[levels - 1::levels] = 1.0
+    all_on = float(np.max(sprites @ top)) if sprites.nnz else 0.0
+    gain = 1.0 / all_on if all_on > 1.0 else 1.0
+    matrix = sprites * np.float32(255.0 * gain)
+    matrix.data[matrix.data < MIN_WEIGHT * 255.0 * gain] = 0.0
+    matrix.eliminate_zeros()
+    matrix.sort_indices()
+    bank = SpriteBank(matrix, m.width, m.height, scale, levels, time.perf_counter() - t0, gain=gain)
+    if path is not None:
+        _save(path, bank)
+    return bank
+
+
+# -- disk cache ---------------------------------------------------------------------------------
+def cache_dir() -> Path:
+    return Path(os.environ.get("RASPV_CACHE_DIR") or Path.home() / ".cache" / "raspv") / "sprites"
+
+
+def _cache_path(m: PhospheneMap, spec: SpriteSpec, scale: int) -> Path:
+    digest = hashlib.sha256()
+    digest.update(json.dumps({"version": _FORMAT_VERSION, "spec": asdict(spec), "width": m.width, "height": m.height,
+                              "focal": round(m.focal_px, 9), "scale": scale, "min_weight": MIN_WEIGHT,
+                              "cortical_map": m.implant.spec.cortical_map if m.implant else ""},
+                             sort_keys=True).encode())
+    digest.update(np.ascontiguousarray(m.electrodes_um, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(m.centres_deg, dtype=np.float64).tobytes())
+    return cache_dir() / f"{spec.model}-{digest.hexdigest()[:24]}.npz"
+
+
+def _load(path: Path, m: PhospheneMap, scale: int, levels: int) -> SpriteBank | None:
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            shape = tuple(int(v) for v in f["shape"])
+            matrix = sp.csc_matrix((f["data"], f["indices"], f["indptr"]), shape=shape)
+            gain = float(f["gain"])
+    except (OSError, ValueError, KeyError):
+        return None                                    # unreadable cache file: rebuild it
+    rows, cols = -(-m.height // scale), -(-m.width // scale)
+    if shape != (rows * cols, m.count * levels) or matrix.data.dtype != np.float32 or not np.all(np.isfinite(matrix.data)):
+        return None
+    return SpriteBank(matrix, m.width, m.height, scale, levels, cached=True, gain=gain)
+
+
+def _save(path: Path, bank: SpriteBank) -> None:
+    """Write atomically; an unwritable cache only costs the rebuild next time."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, data=bank.matrix.data, indices=bank.matrix.indices, indptr=bank.matrix.indptr,
+                     shape=np.array(bank.matrix.shape), gain=np.array(bank.gain))
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+def default_sprite(phosphene_map: PhospheneMap) -> Sprite:
+    """The paper's sprite of a map (a Gaussian of the phosphene diameter)."""
+    return GaussianSprite(phosphene_map.diameter_px)
