@@ -160,6 +160,7 @@ class WedgeDipoleMap:
 
 #: pulse2percept 0.11 ``Polimeni2006Map`` defaults (Polimeni et al. 2006, §4.6 averages).
 POLIMENI2006 = WedgeDipoleMap(k=15.0, a=0.69, b=80.0, alpha=1.0)
-#: dynaphos 0.1.3's published ``cortex_model`` (van der Grinten et al. 2024, eLife).
-DYNAPHOS = WedgeDipoleMap(k=17.3, a=0.75, b=120.0, alpha=0.95)
+#: dynaphos 0.1.3's published ``cortex_model`` (van der Grinten et al. 2024, eLife): the
+#: dipole model (its configuration also lists a wedge α = 0.95, used only by "wedge-dipole").
+DYNAPHOS = WedgeDipoleMap(k=17.3, a=0.75, b=120.0, alpha=1.0)
 CORTICAL_MAPS = {"polimeni2006": POLIMENI2006, "dynaphos": DYNAPHOS}

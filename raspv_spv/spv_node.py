@@ -22,12 +22,14 @@ import array
 import statistics
 import sys
 from collections import deque
+from dataclasses import dataclass
 import threading
 import time
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rclpy._rclpy_pybind11 import RCLError
+from rclpy.parameter import Parameter
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
@@ -41,8 +43,6 @@ from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_msgs.msg import StairDetection
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
-from rclpy.parameter import Parameter
-
 from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
