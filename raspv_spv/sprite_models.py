@@ -55,7 +55,7 @@ from raspv_spv.axon_map import AxonBundles, AxonMapParams, axon_sprites, blend_m
 from raspv_spv.biphasic_axon_map import GranleyEffects, biphasic_axon_sprites, level_amplitudes_xth
 from raspv_spv.phosphene_map import PhospheneMap
 from raspv_spv.retinotopy import CORTICAL_MAPS, image_to_visual_field, watson_um_per_deg
-from raspv_spv.sprites import GaussianSprite, Sprite
+from raspv_spv.sprites import GaussianSprite
 from raspv_spv.tissue_sprites import (cortical_scoreboard_sprites, dynaphos_sigma_deg, dynaphos_sprites,
                                       retinal_scoreboard_sprites)
 
@@ -129,8 +129,6 @@ class SpriteSpec:
         if self.model in ("axon_map", "biphasic_axon_map") and target != "retina":
             raise SpriteModelError(f"the {self.model} model needs a retinal layout; "
                                    f"{phosphene_map.implant.layout.name} is cortical (use scoreboard or dynaphos)")
-        if self.model == "scoreboard" and target == "cortex" and phosphene_map.implant is None:
-            raise SpriteModelError("cortical scoreboard needs a cortical layout")
         if self.model != "gaussian" and phosphene_map.spec.noise_px > 0:
             raise SpriteModelError(f"position noise applies to the gaussian sprite model only; the {self.model} "
                                    "model draws each phosphene from its electrode's position")
@@ -329,8 +327,3 @@ def _save(path: Path, bank: SpriteBank) -> None:
         os.replace(tmp, path)
     except OSError:
         pass
-
-
-def default_sprite(phosphene_map: PhospheneMap) -> Sprite:
-    """The paper's sprite of a map (a Gaussian of the phosphene diameter)."""
-    return GaussianSprite(phosphene_map.diameter_px)
