@@ -89,9 +89,9 @@ def part_axon_map(args, ms, test_frames) -> None:
           f"(target <= 2 ms: {'met' if med <= 2.0 else 'MISSED'})")
     print(f"  sprites           built from scratch in {scratch:.1f} s (target <= 30 s: "
           f"{'met' if scratch <= 30 else 'MISSED'}), {1e3 * cached:.0f} ms from the disk cache")
-    print(f"  renderer memory   {sim.renderer.nbytes / 1e6:.1f} MB ({bank.matrix.nnz} sprite pixels on a 1/{bank.scale} grid "
-          f"of {bank.coarse_shape[1]}x{bank.coarse_shape[0]}; the paper's round sprites for the same 60 would be "
-          f"{_round_sprite_mb(sim):.1f} MB)")
+    print(f"  renderer memory   {bank.nbytes / 1e6:.1f} MB of sprites ({bank.nnz} sprite pixels on a 1/{bank.scale} grid "
+          f"of {bank.coarse_shape[1]}x{bank.coarse_shape[0]}; the paper's round sprites for the same 60: "
+          f"{_round_sprite_mb(sim):.1f} MB), {sim.renderer.nbytes / 1e6:.1f} MB with the output buffer")
     try:
         from pulse2percept.implants.retina import ArgusII
         from pulse2percept.models.retina import AxonMapModel
@@ -128,21 +128,24 @@ def _round_sprite_mb(sim) -> float:
 
     r = Renderer(sim.map.display_centres, ~sim.map.dropped, sim.config.width, sim.config.height,
                  GaussianSprite(sim.map.diameter_px))
-    return r.nbytes / 1e6
+    return r.bank.nbytes / 1e6
 
 
 def part_presets(args, ms, test_frames) -> None:
+    import numpy as np
+
     from raspv_spv.frame_inputs import FrameInputs
 
     frames, camera, source = test_frames()
     inputs = [FrameInputs(color=c, depth=d, camera=camera) for c, d in frames]
     size = args.axon_size
     print(f"Part 5 - every tissue sprite preset at {size}x{size}, mode {args.mode}, temporal on ({source})")
-    print(f"  {'preset':18s} {'model':18s} {'N':>5s} {'scale':>5s} {'build s':>8s} {'cache ms':>8s} "
+    print(f"  {'preset':18s} {'model':18s} {'N':>5s} {'scale':>5s} {'fine':>5s} {'build s':>8s} {'cache ms':>8s} "
           f"{'MB':>6s} {'frame ms':>9s} {'p95':>7s}")
     for device in PRESETS:
         sim, scratch, cached, times = _ours(device, size, args.mode, max(50, args.frames // 5), inputs)
         med, p95 = ms(times)
         bank = sim.renderer.bank
-        print(f"  {device:18s} {sim.config.device.sprite_model:18s} {sim.count:5d} {bank.scale:5d} {scratch:8.1f} "
-              f"{1e3 * cached:8.0f} {sim.renderer.nbytes / 1e6:6.1f} {med:9.3f} {p95:7.3f}")
+        fine = 0 if bank.fine is None else int(np.count_nonzero(np.diff(bank.fine.indptr)))
+        print(f"  {device:18s} {sim.config.device.sprite_model:18s} {sim.count:5d} {bank.scale:5d} {fine:5d} "
+              f"{scratch:8.1f} {1e3 * cached:8.0f} {bank.nbytes / 1e6:6.1f} {med:9.3f} {p95:7.3f}")

@@ -10,8 +10,9 @@ headsets (paper §III-E).
 
 Sprite models (:mod:`raspv_spv.sprite_models`) hand the renderer a precomputed
 :class:`~raspv_spv.sprite_models.SpriteBank`: the same product on a grid ``scale`` times
-coarser than the image (smooth tissue sprites), followed by a bilinear resize, and for levelled
-models (one sprite per level) the product takes each phosphene's column for its level.
+coarser than the image (smooth tissue sprites), followed by a bilinear resize, plus a product
+at full resolution for the phosphenes too small for that grid; for levelled models (one sprite
+per level) the products take each phosphene's column for its level.
 """
 from __future__ import annotations
 
@@ -86,10 +87,13 @@ class Renderer:
         r = cls.__new__(cls)
         visible = np.asarray(visible, dtype=bool)
         if not visible.all():
-            keep = np.repeat(visible, bank.levels).astype(np.float32)
-            bank = type(bank)(bank.matrix @ sp.diags(keep, format="csc"), bank.width, bank.height, bank.scale,
-                              bank.levels, bank.build_s, bank.cached, bank.gain)
-            bank.matrix.eliminate_zeros()
+            keep = sp.diags(np.repeat(visible, bank.levels).astype(np.float32), format="csc")
+            parts = [None if m is None else sp.csc_matrix(m @ keep) for m in (bank.matrix, bank.fine)]
+            for m in parts:
+                if m is not None:
+                    m.eliminate_zeros()
+            bank = type(bank)(parts[0], bank.width, bank.height, bank.scale, bank.levels, bank.build_s, bank.cached,
+                              bank.gain, parts[1])
         r._setup(bank, output_format)
         r.sprite = None
         return r
@@ -103,14 +107,14 @@ class Renderer:
         self.count = bank.matrix.shape[1] // bank.levels
         self.output_format = output_format
         self.matrix = bank.matrix
+        self.fine = bank.fine
         self._coarse = bank.coarse_shape
         self._zeros = np.zeros((self.height, self.width), np.uint8)
 
     @property
     def nbytes(self) -> int:
-        """Memory held by the precomputed matrix."""
-        m = self.matrix
-        return int(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes + self._zeros.nbytes)
+        """Memory held by the precomputed matrices."""
+        return int(self.bank.nbytes + self._zeros.nbytes)
 
     def render_mono(self, brightness: np.ndarray, levels: np.ndarray | None = None) -> np.ndarray:
         """(H, W) uint8 image for ``brightness`` (N,) in [0, 1] (values above 1 saturate).
@@ -121,6 +125,7 @@ class Renderer:
             raise ValueError(f"expected brightness for {self.count} phosphenes, got shape {b.shape}")
         if self.levels == 1:
             summed = self.matrix @ b
+            fine = self.fine @ b if self.fine is not None else None
         else:
             if levels is None:
                 raise ValueError("this renderer draws one sprite per level: pass the phosphenes' levels")
@@ -128,11 +133,16 @@ class Renderer:
             on = np.flatnonzero((lv > 0) & (b > 0))
             cols = on * self.levels + np.minimum(lv[on].astype(np.int64), self.levels) - 1
             summed = self.matrix[:, cols] @ b[on] if on.size else np.zeros(self.matrix.shape[0], np.float32)
+            fine = None
+            if self.fine is not None:
+                fine = self.fine[:, cols] @ b[on] if on.size else np.zeros(self.fine.shape[0], np.float32)
         image = summed.reshape(self._coarse)
         if self.scale > 1:
             rows, cols = self._coarse
             image = cv2.resize(image, (cols * self.scale, rows * self.scale), interpolation=cv2.INTER_LINEAR)
             image = image[:self.height, :self.width]
+        if fine is not None:
+            image = image + fine.reshape(self.height, self.width)
         return cv2.convertScaleAbs(image)
 
     def render(self, brightness: np.ndarray, levels: np.ndarray | None = None) -> np.ndarray:

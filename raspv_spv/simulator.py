@@ -204,8 +204,8 @@ def describe_sprites(sim: PhospheneSimulator) -> str:
                                   f"up to {spec.max_amplitude_xth:g} xTh",
              "dynaphos": f"up to {spec.current_ua:g} uA"}[spec.model]
     how = "cached" if bank.cached else f"built in {bank.build_s:.1f} s"
-    return (f"{spec.model} sprites ({parts}; {bank.matrix.nnz} px at 1/{bank.scale} resolution, "
-            f"{bank.nbytes / 1e6:.1f} MB, {how})")
+    grid = f"1/{bank.scale} resolution" + (" and full resolution for the smallest" if bank.fine is not None else "")
+    return f"{spec.model} sprites ({parts}; {bank.nnz} px at {grid}, {bank.nbytes / 1e6:.1f} MB, {how})"
 
 
 def check_config(config: SpvConfig) -> PhospheneMap:

@@ -32,7 +32,9 @@ Tissue models are smooth on the scale of their narrowest spread σ (ρ, λ, or d
 so they are sampled on a grid ``scale`` times coarser than the image (σ ≥ 4 coarse pixels,
 ``scale`` ≤ 8) and interpolated bilinearly when rendered: the interpolation error of a
 Gaussian sampled every σ/4 is below 1 % of its peak (h²/8·max|f''| = 1/128), while the
-matrix and the per-frame product shrink by ``scale``². Banks that take long to build are
+matrix and the per-frame product shrink by ``scale``². Phosphenes too small for that grid
+(a cortical map's foveal ones next to its large peripheral ones) stay on the image's own
+pixels in a second matrix; ``scale`` is chosen to minimise the pixels added per frame. Banks that take long to build are
 cached on disk under ``$RASPV_CACHE_DIR/sprites`` (default ``~/.cache/raspv``), named by a hash
 of everything they depend on.
 """
@@ -47,6 +49,7 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
@@ -66,7 +69,7 @@ MAX_SCALE = 8
 SIGMA_COARSE_PX = 4.0
 AXON_BLEND_DEG = 1.0        # pulse2percept AxonMapModel meridian_blend (horizontal meridian)
 CORTEX_BLEND_DEG = 0.1      # pulse2percept cortical ScoreboardModel meridian_blend (vertical meridian)
-_FORMAT_VERSION = 2
+_FORMAT_VERSION = 3
 
 
 class SpriteModelError(ValueError):
@@ -139,8 +142,9 @@ class SpriteSpec:
 @dataclass
 class SpriteBank:
     """Precomputed sprites: ``matrix`` (coarse pixels × N·levels, CSC float32, values ×255) on
-    a grid ``scale`` times coarser than the ``width`` × ``height`` image; ``levels`` sprites
-    per phosphene (1: one sprite scaled by the level)."""
+    a grid ``scale`` times coarser than the ``width`` × ``height`` image, plus ``fine``, the
+    phosphenes too small for that grid at the image's own pixels; ``levels`` sprites per
+    phosphene (1: one sprite scaled by the level)."""
 
     matrix: sp.csc_matrix
     width: int
@@ -150,6 +154,7 @@ class SpriteBank:
     build_s: float = 0.0
     cached: bool = False
     gain: float = 1.0          # the scale applied so the whole array at the top level is white
+    fine: sp.csc_matrix | None = None   # (height·width, N·levels): sprites too small for the coarse grid
 
     @property
     def coarse_shape(self) -> tuple[int, int]:
@@ -157,9 +162,14 @@ class SpriteBank:
         return -(-self.height // self.scale), -(-self.width // self.scale)
 
     @property
+    def nnz(self) -> int:
+        """Sprite pixels stored (both grids)."""
+        return int(self.matrix.nnz + (self.fine.nnz if self.fine is not None else 0))
+
+    @property
     def nbytes(self) -> int:
-        m = self.matrix
-        return int(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes)
+        return int(sum(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes
+                       for m in (self.matrix, self.fine) if m is not None))
 
 
 def electrode_pitch_um(phosphene_map: PhospheneMap) -> float:
@@ -181,19 +191,17 @@ def coarse_grid_deg(phosphene_map: PhospheneMap, scale: int) -> tuple[np.ndarray
     return image_to_visual_field(uu, vv, phosphene_map.focal_px, phosphene_map.width / 2.0, phosphene_map.height / 2.0)
 
 
-def narrowest_spread_deg(phosphene_map: PhospheneMap, spec: SpriteSpec) -> float:
-    """The smallest spatial spread σ (dva) of any phosphene inside the image (or of all, if
-    none is): what the sampling grid must resolve."""
+def phosphene_spreads_deg(phosphene_map: PhospheneMap, spec: SpriteSpec) -> np.ndarray:
+    """The narrowest spatial spread σ (dva) of each phosphene's sprite (over its levels): what
+    the sampling grid must resolve for it."""
     m = phosphene_map
-    inside = ((m.centres[:, 0] >= 0) & (m.centres[:, 0] < m.width) & (m.centres[:, 1] >= 0)
-              & (m.centres[:, 1] < m.height))
-    deg = m.centres_deg[inside] if inside.any() else m.centres_deg
-    ecc = np.hypot(deg[:, 0], deg[:, 1])
+    ecc = np.hypot(m.centres_deg[:, 0], m.centres_deg[:, 1])
     target = m.target
+    if spec.model == "gaussian":
+        return np.full(m.count, m.spec.phosphene_fov_deg / 4.0)
     if spec.model == "dynaphos":
         cmap = m.implant.cortical_map if m.implant is not None else CORTICAL_MAPS["dynaphos"]
-        sig = dynaphos_sigma_deg(deg, spec.current_ua * 1e-6 / (spec.num_levels - 1), cmap)
-        return float(np.nanmin(sig))
+        return dynaphos_sigma_deg(m.centres_deg, spec.current_ua * 1e-6 / (spec.num_levels - 1), cmap)
     rho = spec.rho(target, m)
     spread = rho
     if spec.model in ("axon_map", "biphasic_axon_map"):
@@ -205,26 +213,58 @@ def narrowest_spread_deg(phosphene_map: PhospheneMap, spec: SpriteSpec) -> float
             f_streak = float(g.streak(spec.pulse_phase_ms, spec.axlambda()))
             spread = min(rho * math.sqrt(f_size), spec.axlambda() * math.sqrt(f_streak))
     if target == "cortex":
-        return float(np.nanmin(spread / 1000.0 / m.implant.cortical_map.magnification(ecc)))
-    return float(np.min(spread / watson_um_per_deg(ecc)))
+        return spread / 1000.0 / m.implant.cortical_map.magnification(ecc)
+    return spread / watson_um_per_deg(ecc)
+
+
+def sampling_plan(phosphene_map: PhospheneMap, spec: SpriteSpec) -> tuple[int, np.ndarray]:
+    """(scale S, phosphenes drawn at full resolution): phosphenes whose σ spans at least 4
+    pixels of a grid S times coarser go on that grid, the others on the image's own pixels
+    (cortical maps mix tiny foveal phosphenes with large peripheral ones). S minimises the
+    sprite pixels to add per frame; 1 for the paper's sprites."""
+    m = phosphene_map
+    if spec.model == "gaussian":
+        return 1, np.zeros(0, np.int64)
+    sigma = phosphene_spreads_deg(m, spec) * math.pi / 180.0 * m.focal_px
+    sigma = np.where(np.isfinite(sigma), sigma, 0.0)
+    area = np.minimum(math.pi * (3.72 * sigma) ** 2, float(m.width * m.height))   # px of a sprite at 1e-3
+    best, best_cost = 1, float(area.sum())
+    for scale in range(2, MAX_SCALE + 1):
+        coarse = sigma >= SIGMA_COARSE_PX * scale
+        if not coarse.any():
+            break
+        cost = area[~coarse].sum() + area[coarse].sum() / scale ** 2 + (m.width * m.height if (~coarse).any() else 0)
+        if cost < best_cost:
+            best, best_cost = scale, cost
+    fine = np.flatnonzero(sigma < SIGMA_COARSE_PX * best) if best > 1 else np.zeros(0, np.int64)
+    return best, fine
 
 
 def render_scale(phosphene_map: PhospheneMap, spec: SpriteSpec) -> int:
-    """How much coarser than the image the sprites can be sampled (1 for the paper's sprite)."""
-    if spec.model == "gaussian":
-        return 1
-    sigma_px = narrowest_spread_deg(phosphene_map, spec) * math.pi / 180.0 * phosphene_map.focal_px
-    return int(min(MAX_SCALE, max(1, math.floor(sigma_px / SIGMA_COARSE_PX))))
+    """How much coarser than the image the (larger) sprites are sampled (1 for the paper's)."""
+    return sampling_plan(phosphene_map, spec)[0]
 
 
 def model_sprites(phosphene_map: PhospheneMap, spec: SpriteSpec, x_deg: np.ndarray, y_deg: np.ndarray,
-                  min_weight: float = MIN_WEIGHT) -> sp.csc_matrix:
+                  min_weight: float = MIN_WEIGHT, phosphenes: np.ndarray | None = None) -> sp.csc_matrix:
     """Sparse (points, N·levels) sprites of a tissue model evaluated on a grid (rows, cols) of
     visual-field points (dva), normalised to the model's peak — what the renderer samples and
-    what the tests compare with pulse2percept and dynaphos."""
+    what the tests compare with pulse2percept and dynaphos. ``phosphenes``: only those
+    (their columns; the others stay empty)."""
     m = phosphene_map
+    ids = np.arange(m.count) if phosphenes is None else np.asarray(phosphenes, dtype=np.int64)
+    n_lv = spec.num_levels - 1 if spec.levelled else 1
+    sub = _model_sprites(m, spec, x_deg, y_deg, min_weight, ids)
+    if phosphenes is None:
+        return sub
+    coo = sub.tocoo()
+    cols = ids[coo.col // n_lv] * n_lv + coo.col % n_lv
+    return sp.csc_matrix((coo.data, (coo.row, cols)), shape=(sub.shape[0], m.count * n_lv))
+
+
+def _model_sprites(m: PhospheneMap, spec: SpriteSpec, x_deg, y_deg, min_weight: float, ids: np.ndarray) -> sp.csc_matrix:
     shape = np.shape(x_deg)
-    electrodes = m.electrodes_um
+    electrodes = m.electrodes_um[ids]
     target = m.target
     rho = spec.rho(target, m)
     if spec.model == "scoreboard":
@@ -235,7 +275,8 @@ def model_sprites(phosphene_map: PhospheneMap, spec: SpriteSpec, x_deg: np.ndarr
     if spec.model == "dynaphos":
         cmap = m.implant.cortical_map if m.implant is not None else CORTICAL_MAPS["dynaphos"]
         levels = np.arange(1, spec.num_levels) / (spec.num_levels - 1)
-        return dynaphos_sprites(x_deg, y_deg, m.centres_deg, spec.current_ua * 1e-6 * levels, levels, cmap, min_weight)
+        return dynaphos_sprites(x_deg, y_deg, m.centres_deg[ids], spec.current_ua * 1e-6 * levels, levels, cmap,
+                                min_weight)
     params = AxonMapParams(rho_um=rho, axlambda_um=spec.axlambda(), eye=spec.eye)
     x_range = (float(np.min(x_deg)), float(np.max(x_deg)))
     y_range = (float(np.min(y_deg)), float(np.max(y_deg)))
@@ -250,6 +291,17 @@ def model_sprites(phosphene_map: PhospheneMap, spec: SpriteSpec, x_deg: np.ndarr
     return blend_meridian(sp.csc_matrix(s), shape, y_deg, AXON_BLEND_DEG, axis=0)
 
 
+def upsample(values: np.ndarray, coarse_shape: tuple[int, int], scale: int, width: int, height: int) -> np.ndarray:
+    """A grid of ``coarse_shape`` sampled every ``scale`` px (values flat) → the image
+    (height, width), bilinear (cell centres on pixel centres)."""
+    image = np.asarray(values, dtype=np.float32).reshape(coarse_shape)
+    if scale == 1:
+        return image
+    rows, cols = coarse_shape
+    image = cv2.resize(image, (cols * scale, rows * scale), interpolation=cv2.INTER_LINEAR)
+    return image[:height, :width]
+
+
 def build_sprite_bank(phosphene_map: PhospheneMap, spec: SpriteSpec, use_cache: bool = True) -> SpriteBank:
     """The sprites of ``phosphene_map`` drawn by ``spec``'s model (from the disk cache when a
     tissue model was built before with the same inputs)."""
@@ -262,25 +314,40 @@ def build_sprite_bank(phosphene_map: PhospheneMap, spec: SpriteSpec, use_cache: 
         matrix = sprite_matrix(m.display_centres, np.ones(m.count, bool), m.width, m.height,
                                GaussianSprite(m.diameter_px))
         return SpriteBank(matrix, m.width, m.height, 1, 1, time.perf_counter() - t0)
-    scale = render_scale(m, spec)
+    scale, fine = sampling_plan(m, spec)
     levels = spec.num_levels - 1 if spec.levelled else 1
-    path = _cache_path(m, spec, scale) if use_cache else None
+    path = _cache_path(m, spec, scale, fine) if use_cache else None
     if path is not None and path.exists():
         bank = _load(path, m, scale, levels)
         if bank is not None:
             bank.build_s = time.perf_counter() - t0
             return bank
+    coarse_ids = np.setdiff1d(np.arange(m.count), fine)
     x, y = coarse_grid_deg(m, scale)
-    sprites = sp.csc_matrix(model_sprites(m, spec, x, y), dtype=np.float32)
-    top = np.zeros(sprites.shape[1], np.float32)
+    coarse = sp.csc_matrix(model_sprites(m, spec, x, y, phosphenes=coarse_ids if fine.size else None), dtype=np.float32)
+    fine_part = None
+    if fine.size:
+        fx, fy = coarse_grid_deg(m, 1)
+        fine_part = sp.csc_matrix(model_sprites(m, spec, fx, fy, phosphenes=fine), dtype=np.float32)
+    top = np.zeros(coarse.shape[1], np.float32)
     top[levels - 1::levels] = 1.0
-    all_on = float(np.max(sprites @ top)) if sprites.nnz else 0.0
-    gain = 1.0 / all_on if all_on > 1.0 else 1.0
-    matrix = sprites * np.float32(255.0 * gain)
-    matrix.data[matrix.data < MIN_WEIGHT * 255.0 * gain] = 0.0
-    matrix.eliminate_zeros()
-    matrix.sort_indices()
-    bank = SpriteBank(matrix, m.width, m.height, scale, levels, time.perf_counter() - t0, gain=gain)
+    all_on = upsample(coarse @ top, ((m.height + scale - 1) // scale, (m.width + scale - 1) // scale), scale,
+                      m.width, m.height)
+    if fine_part is not None:
+        all_on = all_on + (fine_part @ top).reshape(m.height, m.width)
+    peak = float(all_on.max()) if all_on.size else 0.0
+    gain = 1.0 / peak if peak > 1.0 else 1.0
+    parts = []
+    for part in (coarse, fine_part):
+        if part is None:
+            parts.append(None)
+            continue
+        part = part * np.float32(255.0 * gain)
+        part.data[part.data < MIN_WEIGHT * 255.0 * gain] = 0.0
+        part.eliminate_zeros()
+        part.sort_indices()
+        parts.append(part)
+    bank = SpriteBank(parts[0], m.width, m.height, scale, levels, time.perf_counter() - t0, gain=gain, fine=parts[1])
     if path is not None:
         _save(path, bank)
     return bank
@@ -291,7 +358,7 @@ def cache_dir() -> Path:
     return Path(os.environ.get("RASPV_CACHE_DIR") or Path.home() / ".cache" / "raspv") / "sprites"
 
 
-def _cache_path(m: PhospheneMap, spec: SpriteSpec, scale: int) -> Path:
+def _cache_path(m: PhospheneMap, spec: SpriteSpec, scale: int, fine: np.ndarray) -> Path:
     digest = hashlib.sha256()
     digest.update(json.dumps({"version": _FORMAT_VERSION, "spec": asdict(spec), "width": m.width, "height": m.height,
                               "focal": round(m.focal_px, 9), "scale": scale, "min_weight": MIN_WEIGHT,
@@ -299,21 +366,33 @@ def _cache_path(m: PhospheneMap, spec: SpriteSpec, scale: int) -> Path:
                              sort_keys=True).encode())
     digest.update(np.ascontiguousarray(m.electrodes_um, dtype=np.float64).tobytes())
     digest.update(np.ascontiguousarray(m.centres_deg, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(fine, dtype=np.int64).tobytes())
     return cache_dir() / f"{spec.model}-{digest.hexdigest()[:24]}.npz"
 
 
 def _load(path: Path, m: PhospheneMap, scale: int, levels: int) -> SpriteBank | None:
     try:
         with np.load(path, allow_pickle=False) as f:
-            shape = tuple(int(v) for v in f["shape"])
-            matrix = sp.csc_matrix((f["data"], f["indices"], f["indptr"]), shape=shape)
+            parts = []
+            for name in ("coarse", "fine"):
+                if f"{name}_shape" not in f:
+                    parts.append(None)
+                    continue
+                shape = tuple(int(v) for v in f[f"{name}_shape"])
+                parts.append(sp.csc_matrix((f[f"{name}_data"], f[f"{name}_indices"], f[f"{name}_indptr"]), shape=shape))
             gain = float(f["gain"])
     except (OSError, ValueError, KeyError):
         return None                                    # unreadable cache file: rebuild it
     rows, cols = -(-m.height // scale), -(-m.width // scale)
-    if shape != (rows * cols, m.count * levels) or matrix.data.dtype != np.float32 or not np.all(np.isfinite(matrix.data)):
+    expected = {"coarse": (rows * cols, m.count * levels), "fine": (m.height * m.width, m.count * levels)}
+    for name, part in zip(("coarse", "fine"), parts):
+        if part is None:
+            continue
+        if part.shape != expected[name] or part.data.dtype != np.float32 or not np.all(np.isfinite(part.data)):
+            return None
+    if parts[0] is None:
         return None
-    return SpriteBank(matrix, m.width, m.height, scale, levels, cached=True, gain=gain)
+    return SpriteBank(parts[0], m.width, m.height, scale, levels, cached=True, gain=gain, fine=parts[1])
 
 
 def _save(path: Path, bank: SpriteBank) -> None:
@@ -321,9 +400,13 @@ def _save(path: Path, bank: SpriteBank) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        arrays = {"gain": np.array(bank.gain)}
+        for name, part in (("coarse", bank.matrix), ("fine", bank.fine)):
+            if part is not None:
+                arrays.update({f"{name}_data": part.data, f"{name}_indices": part.indices,
+                               f"{name}_indptr": part.indptr, f"{name}_shape": np.array(part.shape)})
         with os.fdopen(fd, "wb") as f:
-            np.savez(f, data=bank.matrix.data, indices=bank.matrix.indices, indptr=bank.matrix.indptr,
-                     shape=np.array(bank.matrix.shape), gain=np.array(bank.gain))
+            np.savez(f, **arrays)
         os.replace(tmp, path)
     except OSError:
         pass
