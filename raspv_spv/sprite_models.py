@@ -302,6 +302,15 @@ def upsample(values: np.ndarray, coarse_shape: tuple[int, int], scale: int, widt
     return image[:height, :width]
 
 
+def cached_bank_path(phosphene_map: PhospheneMap, spec: SpriteSpec) -> Path | None:
+    """Where the bank of a tissue model is cached (None for the paper's sprites, built in
+    milliseconds and not cached)."""
+    if spec.model == "gaussian":
+        return None
+    scale, fine = sampling_plan(phosphene_map, spec)
+    return _cache_path(phosphene_map, spec, scale, fine)
+
+
 def build_sprite_bank(phosphene_map: PhospheneMap, spec: SpriteSpec, use_cache: bool = True) -> SpriteBank:
     """The sprites of ``phosphene_map`` drawn by ``spec``'s model (from the disk cache when a
     tissue model was built before with the same inputs)."""

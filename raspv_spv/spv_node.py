@@ -11,7 +11,8 @@ waits for a camera frame, and ticks it could not run on time are counted as drop
 ``/spv/map`` is latched and re-published whenever the map changes. A parameter change is
 checked at once (map, implant layout, sprite model, mode: refused with the reason when it
 cannot be built) and the new simulator — sprites and temporal table can take seconds the first
-time — is built in the background (:mod:`raspv_spv.background_build`) while the old one keeps
+time — is built in the background (:mod:`raspv_spv.background_build`; what is not in the disk
+caches by a lower-priority subprocess, :mod:`raspv_spv.prebuild`) while the old one keeps
 displaying; it is swapped in between two display ticks, with levels already computed from the
 latest frame, so the display never stalls. Bad input images are skipped with one rate-limited
 warning.
@@ -48,6 +49,7 @@ from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
+from raspv_spv.prebuild import missing_from_cache, prebuild_in_subprocess
 from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, describe_layout, describe_sprites
 from raspv_spv.spv_params import PARAMS
 
@@ -158,7 +160,14 @@ class SpvNode(RaspvNode):
     # -- background rebuild (worker thread) ---------------------------------------------------
     def _build(self, request: _Rebuild) -> _Rebuild:
         """Build the new simulator and its levels for the latest frame, so the swap shows the
-        new configuration at once instead of blank phosphenes until the next camera frame."""
+        new configuration at once instead of blank phosphenes until the next camera frame.
+        What is not in the disk caches yet is built by a lower-priority subprocess first, so
+        this process only reads it back (no GIL or CPU taken from the display thread)."""
+        missing = missing_from_cache(request.config, request.phosphene_map)
+        if missing:
+            self.get_logger().info(f"building the {' and '.join(missing)} of {request.config.device.name} "
+                                   "in the background")
+            prebuild_in_subprocess(request.config)
         request.sim = PhospheneSimulator(request.config, phosphene_map=request.phosphene_map)
         inputs = self._latest_inputs(request.sim)
         if inputs is not None:

@@ -114,3 +114,24 @@ def test_banks_are_cached_on_disk_and_a_corrupt_cache_file_is_rebuilt(lut_cache)
     # another rho is another file
     other = build_sprite_bank(m, SpriteSpec("axon_map", 200, 1000))
     assert not other.cached and len(list(cache_dir().glob("axon_map-*.npz"))) == 2
+
+
+def test_a_lower_priority_subprocess_builds_the_slow_parts_into_the_caches(tmp_path):
+    from raspv_spv.prebuild import PrebuildError, missing_from_cache, prebuild_in_subprocess
+
+    config = spv_config("bva44", width=120, pulse_phase_ms=0.3)        # a temporal table no other test builds
+    m = check_config(config)
+    assert missing_from_cache(config, m) == ["sprites", "temporal table"]
+    prebuild_in_subprocess(config)
+    assert missing_from_cache(config, m) == []
+    sim = PhospheneSimulator(config, phosphene_map=m)
+    assert sim.renderer.bank.cached
+    # a failure in the subprocess comes back as one line
+    layout = tmp_path / "mine.yaml"
+    layout.write_text("name: mine\ntarget: retina\nelectrodes: [[a, 0, 0, 100], [b, 500, 0, 100]]\n")
+    device = tmp_path / "dev.yaml"
+    device.write_text(f"name: dev\nfov_deg: 20\nnum_levels: 8\nlayout: {layout}\nsprite_model: scoreboard\n")
+    config = spv_config(str(device), width=100)
+    layout.unlink()
+    with pytest.raises(PrebuildError, match=r"LayoutError: layout file .*mine.yaml does not exist"):
+        prebuild_in_subprocess(config)
