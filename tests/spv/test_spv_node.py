@@ -65,7 +65,9 @@ def test_parameters_change_at_run_time_and_bad_values_are_refused(graph, probe):
     assert cli.returncode == 1 and "refused dropout=2.0" in cli.stderr
     results = probe.set_params("spv", {"output_format": "green", "device": "argus_ii", "num_phosphenes": 0})
     assert all(ok for _, ok, _ in results), results
-    img = probe.wait_for_message(topics.SPV_IMAGE, Image, timeout=30, predicate=lambda i: i.encoding == "rgb8")
+    # changes are built in the background: wait for the image of the last one (argus_ii's aspect 0.6)
+    img = probe.wait_for_message(topics.SPV_IMAGE, Image, timeout=60,
+                                 predicate=lambda i: i.encoding == "rgb8" and i.height == 120)
     assert (img.width, img.height) == (200, 120)
     m = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=30, qos=LATCHED_QOS,
                                predicate=lambda m: m.device == "argus_ii" and len(m.x) == 60)
