@@ -16,6 +16,7 @@ import os
 import pickle
 import subprocess
 import sys
+from pathlib import Path
 
 from raspv_spv.config import SpvConfig
 from raspv_spv.phosphene_map import PhospheneMap
@@ -23,6 +24,7 @@ from raspv_spv.sprite_models import build_sprite_bank, cached_bank_path
 from raspv_spv.temporal_lut import cached_table_path, load_table
 
 PREBUILD_NICENESS = 10
+PACKAGE_ROOT = str(Path(__file__).resolve().parent.parent)
 
 
 class PrebuildError(RuntimeError):
@@ -53,8 +55,10 @@ def prebuild_in_subprocess(config: SpvConfig, timeout: float = 600.0) -> None:
     """Run :func:`prebuild` in a separate, lower-priority Python process and wait for it;
     raises :class:`PrebuildError` with the reason if it fails."""
     try:
+        # run from the directory this package is in: ``-m`` puts the working directory first on
+        # the path, and another checkout there must not be imported instead of this one
         proc = subprocess.run([sys.executable, "-m", "raspv_spv.prebuild"], input=pickle.dumps(config),
-                              capture_output=True, timeout=timeout, env=dict(os.environ))
+                              capture_output=True, timeout=timeout, env=dict(os.environ), cwd=PACKAGE_ROOT)
     except subprocess.TimeoutExpired:
         raise PrebuildError(f"building {config.device.name} took more than {timeout:.0f} s") from None
     if proc.returncode != 0:
