@@ -116,12 +116,16 @@ def test_banks_are_cached_on_disk_and_a_corrupt_cache_file_is_rebuilt(lut_cache)
     assert not other.cached and len(list(cache_dir().glob("axon_map-*.npz"))) == 2
 
 
-def test_a_lower_priority_subprocess_builds_the_slow_parts_into_the_caches(tmp_path):
+def test_a_lower_priority_subprocess_builds_the_slow_parts_into_the_caches(tmp_path, monkeypatch):
     from raspv_spv.prebuild import PrebuildError, missing_from_cache, prebuild_in_subprocess
 
     config = spv_config("bva44", width=120, pulse_phase_ms=0.3)        # a temporal table no other test builds
     m = check_config(config)
     assert missing_from_cache(config, m) == ["sprites", "temporal table"]
+    # started from a directory with another raspv_spv in it, the subprocess still runs this one
+    (tmp_path / "raspv_spv").mkdir()
+    (tmp_path / "raspv_spv" / "__init__.py").write_text("raise ImportError('the wrong checkout')\n")
+    monkeypatch.chdir(tmp_path)
     prebuild_in_subprocess(config)
     assert missing_from_cache(config, m) == []
     sim = PhospheneSimulator(config, phosphene_map=m)
