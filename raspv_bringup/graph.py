@@ -106,8 +106,17 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
         raise GraphError([_yaml_error(path, exc)]) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise GraphError([f"{path}: cannot read ({exc})"]) from None
+    return graph_from_doc(doc, path, overrides)
+
+
+def graph_from_doc(doc: Any, path: str | Path, overrides: list[str] | None = None, where: str = "") -> Graph:
+    """Validate a graph already read from YAML (e.g. the ``graph:`` section of an experiment
+    protocol); ``where`` prefixes the keys in messages (``"graph."``)."""
+    path = Path(path)
     if not isinstance(doc, dict):
-        raise GraphError([f"{path}: expected a mapping with a 'launch' section and node parameter sections"])
+        raise GraphError([f"{path}: {where or ''}expected a mapping with a 'launch' section and node parameter sections"])
+    if where:
+        return _prefixed(doc, path, overrides, where)
     errors: list[str] = []
     launch = doc.get("launch")
     if not isinstance(launch, dict) or not isinstance(launch.get("nodes"), list) or not launch["nodes"]:
@@ -199,6 +208,15 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
     if errors:
         raise GraphError(errors)
     return Graph(path=path, nodes=nodes, env=env)
+
+
+def _prefixed(doc: dict, path: Path, overrides: list[str] | None, where: str) -> Graph:
+    """graph_from_doc with every message's key prefixed by ``where``."""
+    try:
+        return graph_from_doc(doc, path, overrides)
+    except GraphError as exc:
+        head = f"{path}: "
+        raise GraphError([head + where + e[len(head):] if e.startswith(head) else e for e in exc.errors]) from None
 
 
 def _string_map(value: Any, where: str, errors: list[str]) -> dict[str, str]:

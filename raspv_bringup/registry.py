@@ -31,6 +31,8 @@ NODES: dict[str, NodeSpec] = {
     "odometry": NodeSpec("raspv_perception.odometry_node", "raspv_perception.odometry_params:PARAMS", "RGB-D odometry publishing /camera/pose for sources without a pose"),
     "bridge": NodeSpec("raspv_hmd.bridge_node", "raspv_hmd.bridge_params:PARAMS", "headset bridge: streams /spv/image to browser/native clients, publishes their head pose and teleop"),
     "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
+    "subject": NodeSpec("raspv_experiments.subject_node", "raspv_experiments.subject_params:PARAMS",
+                        "scripted subject: sees /spv/frame and /spv/map only, drives /cmd_vel (experiments, sweeps)"),
     "replay": NodeSpec("raspv_camera.replay_node", "raspv_camera.replay_params:PARAMS", "a recorded bag as the source: original timing, rate, loop, remapping, /clock"),
 }
 

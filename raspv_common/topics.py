@@ -11,6 +11,9 @@ ODOM = "/odom"                              # nav_msgs/Odometry, base in world
 SIM_LABELS = "/sim/labels"                  # sensor_msgs/Image mono8, ground-truth class ids
 SIM_COLLISIONS = "/sim/collisions"          # raspv_msgs/CollisionEvent
 SIM_CLASSES = "/sim/classes"                # std_msgs/String JSON {id: class name}, latched
+SIM_LOCKSTEP = "/sim/lockstep"              # geometry_msgs/TwistStamped: command answering the frame of that stamp
+SIM_START_TRIAL = "/sim/start_trial"        # raspv_msgs/srv/StartTrial
+SIM_END_TRIAL = "/sim/end_trial"            # raspv_msgs/srv/EndTrial
 
 # Commands to the avatar / camera head.
 CMD_VEL = "/cmd_vel"                        # geometry_msgs/Twist, base frame
@@ -30,4 +33,8 @@ SPV_IMAGE = "/spv/image"                    # sensor_msgs/Image mono8 (or rgb8 g
 SPV_FRAME = "/spv/frame"                    # raspv_msgs/PhospheneFrame
 SPV_MAP = "/spv/map"                        # raspv_msgs/PhospheneMap, transient-local
 
-CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay)
+CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; sim: simulation time)
+
+# Experiments (raspv_experiments).
+EXPERIMENT_INSTRUCTIONS = "/experiment/instructions"  # std_msgs/String JSON, latched: what the subject is told
+EXPERIMENT_RESPONSE = "/experiment/response"          # std_msgs/String JSON: the subject's start/abort

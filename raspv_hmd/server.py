@@ -124,6 +124,7 @@ class Callbacks:
     on_key: Callable[[int, str], None] = _noop                  # (client id, key)
     on_param: Callable[[int, str, Any], None] = _noop           # (client id, name, value)
     on_event: Callable[[str], None] = _noop                     # connection events, for the log
+    on_experiment: Callable[[int, str, str], None] = _noop      # (client id, "start"/"abort", instructions id)
 
 
 @dataclass
@@ -289,6 +290,7 @@ class HeadsetServer:
         self._deadman = DeadMan(self.config.deadman_s)
         self._deadman_timer: asyncio.TimerHandle | None = None
         self._latest: OutgoingFrame | None = None
+        self._instructions = ""                  # the latest experiment instructions (JSON text)
         self._seq = 0
         self._seq_lock = threading.Lock()
         self._png_clients = 0
@@ -459,6 +461,22 @@ class HeadsetServer:
         except RuntimeError:
             pass
 
+    def show_instructions(self, info: dict[str, Any] | None) -> None:
+        """Experiment instructions for every client (and clients that connect later), or None
+        to hide them: ``{"id", "title", "text", "waiting"}`` (waiting: a start is expected)."""
+        self._instructions = P.server_message("instructions", **(info or {"id": "", "text": "", "waiting": False}))
+        loop = self._loop
+        if loop is None:
+            return
+
+        def send() -> None:
+            for s in list(self._sessions.values()):
+                loop.create_task(self._say(s, self._instructions))
+        try:
+            loop.call_soon_threadsafe(send)
+        except RuntimeError:
+            pass
+
     @property
     def controller(self) -> int | None:
         return self._arbiter.controller
@@ -578,6 +596,8 @@ class HeadsetServer:
                     f"{P.FORMAT_NAMES[s.format]} frames)")
         if changed:
             await self._announce_roles()
+        if self._instructions:
+            await self._say(s, self._instructions)
         if self._latest is not None:
             s.frame_ready.set()
         sender = asyncio.create_task(self._sender(s))
@@ -721,6 +741,8 @@ class HeadsetServer:
             self._call(self.callbacks.on_key, s.id, msg.key)
         elif isinstance(msg, P.SetParam):
             self._call(self.callbacks.on_param, s.id, msg.name, msg.value)
+        elif isinstance(msg, P.Experiment):
+            self._call(self.callbacks.on_experiment, s.id, msg.action, msg.id)
 
     # -- helpers --------------------------------------------------------------------------------
     def _arm_deadman(self) -> None:

@@ -34,5 +34,11 @@ PARAMS = [
     Param("depth_max_range", 6.0, "sensor range with depth_noise on", minimum=0.5, maximum=50.0, unit="m"),
     Param("seed", 0, "random seed of the depth-sensor model", minimum=0, maximum=2**31 - 1, dynamic=False),
     Param("log_dir", "", "experiment logs go to <log_dir>/<world>-<time>/ (empty: no log)", dynamic=False),
+    Param("step_mode", "realtime", "realtime: step with the wall clock at 'rate'; lockstep: step 1/rate s of sim time "
+          "each time a controller answers the last frame on /sim/lockstep (scripted subjects, sweeps)",
+          choices=("realtime", "lockstep"), dynamic=False),
+    Param("lockstep_timeout", 2.0, "lockstep: step anyway when no answer came for this long", minimum=0.05,
+          maximum=60.0, dynamic=False, unit="s"),
+    Param("paused", False, "hold the world: no time passes and nothing moves (realtime: frames keep coming)"),
     Param("log_rate", 10.0, "trajectory samples per second in the log", minimum=0.5, maximum=100.0, dynamic=False, unit="Hz"),
 ]

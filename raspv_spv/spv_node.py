@@ -8,6 +8,8 @@ A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) 
 temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
 waits for a camera frame, and ticks it could not run on time are counted as dropped frames
 (the temporal model then advances by the frames that elapsed) and reported every 10 s.
+With ``headless`` there is no display loop: each computed frame is published at once with its
+input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.
 ``/spv/map`` is latched and re-published whenever the map changes. Parameter changes build a
 complete new simulator and swap it in, or are refused with the reason; bad input images are
 skipped with one rate-limited warning.
@@ -93,7 +95,9 @@ class SpvNode(RaspvNode):
         # enough to drop 7 % of the frames in the demo graph.
         self._stop_display = threading.Event()
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
-        self._display_thread.start()
+        self._headless_stamp: float | None = None
+        if not self.params["headless"]:
+            self._display_thread.start()
         self.create_timer(REPORT_PERIOD_S, self.report)
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
@@ -228,16 +232,31 @@ class SpvNode(RaspvNode):
             levels = sim.levels(inputs)
         except InputError as exc:
             self.warn_throttled("input", f"cannot use this frame: {exc}")
+            if self.params["headless"]:
+                self._headless_tick(self.stamps[which])    # a frame still goes out: controllers wait for it
             return
         self._levels = (map_id, levels, self.stamps[which])
+        if self.params["headless"]:
+            self._headless_tick(self.stamps[which])
+
+    def _headless_tick(self, stamp: float) -> None:
+        """Publish the frame of input time ``stamp`` [s], the temporal model advancing by the
+        display frames elapsed since the previous one."""
+        last, self._headless_stamp = self._headless_stamp, stamp
+        frames = 1 if last is None else max(1, int(round((stamp - last) * self.params["rate"])))
+        self.tick(frames, stamp)
 
     # -- display ------------------------------------------------------------------------------
-    def tick(self) -> None:
+    def tick(self, frames: int | None = None, stamp: float | None = None) -> None:
+        """One display frame (headless: ``frames`` elapsed, stamped ``stamp`` s)."""
         if not self.context.ok():                  # shutting down: the publishers are gone
             return
         t0 = time.monotonic()
-        frames = 1
-        if self._last_tick is not None:
+        if frames is not None:
+            pass
+        elif self._last_tick is None:
+            frames = 1
+        else:
             period = 1.0 / self.params["rate"]
             frames = max(1, int(round((t0 - self._last_tick) / period)))
             self._dropped += frames - 1
@@ -250,19 +269,24 @@ class SpvNode(RaspvNode):
             else:
                 levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
             brightness = sim.brightness(levels, frames)
-        image = sim.render(brightness)
-        header = self.header("phosphene")
-        msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
-        msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
-        msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
-        msg.data = array.array("B", image.tobytes())
+        if stamp is not None:
+            source_stamp = stamp                    # headless: the frame answers this input
+        header = self.header("phosphene", stamp)
+        msg = None
+        if stamp is None or self.pub_image.get_subscription_count():   # headless: only when watched
+            image = sim.render(brightness)
+            msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
+            msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
+            msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
+            msg.data = array.array("B", image.tobytes())
         frame = PhospheneFrame(header=header, map_id=map_id, mode=sim.config.mode, overlays=list(sim.config.overlays),
                                temporal=sim.temporal is not None)
         frame.source_stamp = self.header("", source_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())
         frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
         try:
-            self.pub_image.publish(msg)
+            if msg is not None:
+                self.pub_image.publish(msg)
             self.pub_frame.publish(frame)
         except RCLError:
             if self.context.ok():
@@ -315,7 +339,8 @@ class SpvNode(RaspvNode):
 
     def close(self) -> None:
         self._stop_display.set()
-        self._display_thread.join(timeout=2.0)
+        if self._display_thread.is_alive():
+            self._display_thread.join(timeout=2.0)
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "

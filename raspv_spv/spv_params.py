@@ -33,6 +33,8 @@ PARAMS = [
     Param("pulse_amplitude_ua", 0.0, "biphasic pulse amplitude of an 'on' frame (0: the device's)", minimum=0.0,
           maximum=2000.0, unit="uA"),
     Param("pulse_phase_ms", 0.0, "duration of each pulse phase (0: the device's)", minimum=0.0, maximum=5.0, unit="ms"),
+    Param("headless", False, "no display loop: publish each computed frame at once, stamped with its input, the "
+          "temporal model advancing by the input's elapsed time (scripted subjects, sweeps in sim time)", dynamic=False),
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("output_format", "mono8", "/spv/image encoding: mono8, or green (rgb8, green channel only, for headsets)",
           choices=("mono8", "green")),
