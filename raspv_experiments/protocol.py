@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -252,8 +253,8 @@ def _conditions(value: Any, graph: Graph | None, ck: _Checker) -> list[Condition
     nodes = {n.name: n.kind for n in graph.nodes} if graph is not None else None
     for cname, body in value.items():
         key = f"conditions.{cname}"
-        if not isinstance(cname, str) or not cname.replace("_", "").replace("-", "").isalnum():
-            ck.fail(key, "condition names are letters, digits, '_' and '-'")
+        if not isinstance(cname, str) or not re.fullmatch(r"[A-Za-z0-9_\-=+.]+", cname):
+            ck.fail(key, "condition names are letters, digits and _ - = + . (they name files)")
             continue
         body = {} if body is None else ck.mapping(body, key, "{spv: {mode: depth}}")
         params: dict[str, dict[str, Any]] = {}

@@ -45,8 +45,12 @@ def now_iso() -> str:
 def append_jsonl(path: Path, record: dict[str, Any]) -> None:
     """One JSON line, flushed to disk (fsync) before returning."""
     line = json.dumps(record, default=_jsonable, allow_nan=True) + "\n"
-    with open(path, "a", encoding="utf-8") as f:
-        f.write(line)
+    with open(path, "a+b") as f:
+        if f.tell() > 0:                       # a line cut by a kill must not swallow this record
+            f.seek(-1, os.SEEK_END)
+            if f.read(1) != b"\n":
+                line = "\n" + line
+        f.write(line.encode("utf-8"))
         f.flush()
         os.fsync(f.fileno())
 
