@@ -133,17 +133,12 @@ def _run(args) -> int:
     options = RunOptions(out=Path(args.out), subject=subject, policy=policy, number=number, resume=args.resume,
                          bag=args.bag, lockstep=False if args.realtime else None,
                          headless=False if args.realtime else None)
-    view = TerminalView(on_key=None)
+    holder: dict = {}
+    view = TerminalView(on_key=lambda key: holder["runner"].control.key(key) if "runner" in holder else None)
     runner = None
     _install_stop(options.stop)
     try:
-        runner = SessionRunner(protocol, options, view)
-        view.on_key = runner.control.key
-        if view.interactive:
-            view.close()
-            view = TerminalView(on_key=runner.control.key)
-            runner.view = view
-            runner.say = view.say
+        runner = holder["runner"] = SessionRunner(protocol, options, view)
         return runner.run()
     except (SessionError, RunnerError, ValueError) as exc:
         view.say("")

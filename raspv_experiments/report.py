@@ -117,15 +117,11 @@ def summary_table(rows: list[dict[str, Any]], conditions: list[str]) -> str:
     for c in conditions:
         t = [r for r in rows if r["condition"] == c]
         ok = sum(1 for r in t if r["success"])
+        success = f"{ok}/{len(t)} ({100 * ok / len(t):.0f} %)" if t else "–"
+        cells = "".join(f"<td>{_median_iqr([r[k] for r in t])}</td>" for k in
+                        ("completion_time_s", "collisions", "path_efficiency", "min_clearance_m", "head_rotation_deg_per_s"))
         body.append(f"<tr><td>{html.escape(c)}</td><td>{len(t)}</td><td>{len({r['subject'] for r in t})}</td>"
-                    f"<td>{ok}/{len(t)} ({100 * ok / len(t):.0f} %)</td>" if t else f"<tr><td>{html.escape(c)}</td><td>0</td>"
-                    "<td>0</td><td>–</td>")
-        if t:
-            body[-1] += "".join(f"<td>{_median_iqr([r[k] for r in t])}</td>" for k in
-                                ("completion_time_s", "collisions", "path_efficiency", "min_clearance_m",
-                                 "head_rotation_deg_per_s")) + "</tr>"
-        else:
-            body[-1] += "<td>–</td>" * 5 + "</tr>"
+                    f"<td>{success}</td>{cells}</tr>")
     return (f"<table class='summary'>{head}{''.join(body)}</table><p class='note'>Cells: median [interquartile "
             "range] over trials; completed, non-practice trials only.</p>")
 

@@ -51,7 +51,9 @@ class ExperimenterControl:
 @dataclass
 class TrialMonitor:
     """Decides when a running trial ends: the base inside the goal region, the time limit (in
-    simulation time since the start), or the subject's abort."""
+    simulation time since the start), or the subject's abort. Positions count only once one
+    near the start pose came in (``armed``): poses still in flight from before the reset — the
+    previous trial may have ended in this goal — are ignored."""
 
     goal_x: float
     goal_y: float
@@ -59,6 +61,10 @@ class TrialMonitor:
     time_limit: float
     start_t: float
     t: float = 0.0
+    start_x: float | None = None
+    start_y: float | None = None
+    arm_radius: float = 0.5
+    armed: bool = False
     outcome: str | None = None
     collisions: list[str] = field(default_factory=list)
 
@@ -72,7 +78,10 @@ class TrialMonitor:
             return self.outcome
         if t is not None and math.isfinite(t):
             self.t = max(self.t, t)
-        if x is not None and y is not None and math.hypot(x - self.goal_x, y - self.goal_y) <= self.goal_radius:
+        if x is not None and y is not None and not self.armed:
+            self.armed = self.start_x is None or math.hypot(x - self.start_x, y - self.start_y) <= self.arm_radius
+        if self.armed and x is not None and y is not None and \
+                math.hypot(x - self.goal_x, y - self.goal_y) <= self.goal_radius:
             self.outcome = "goal"
         elif self.elapsed >= self.time_limit:
             self.outcome = "time_limit"

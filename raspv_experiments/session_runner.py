@@ -246,9 +246,15 @@ class SessionRunner:
 
     def _apply_condition(self, trial: PlannedTrial, task: Task) -> dict[str, dict[str, Any]]:
         params = self.protocol.trial_params(trial.condition)
-        for n in self.protocol.graph.nodes:
-            if n.kind == "planner":
-                params.setdefault(n.name, {}).update(goal=[task.goal.x, task.goal.y], goal_name="")
+        planners = [n.name for n in self.protocol.graph.nodes if n.kind == "planner"]
+        if planners:        # the planner guides to where the body can stand in the goal region
+            import numpy as np
+
+            g = np.array([task.goal.x, task.goal.y])
+            target = world_geometry(task.world).reachable_point(g, task.goal.radius)
+            target = g if target is None else target
+            for name in planners:
+                params.setdefault(name, {}).update(goal=[float(target[0]), float(target[1])], goal_name="")
         for node, values in params.items():
             self.client.set_params(node, values)
         return params
@@ -294,12 +300,12 @@ class SessionRunner:
         self.client.show({"id": key, "trial": trial.index, "title": title, "text": "", "waiting": False})
         run_dir, start_t = Path(res.run_dir), float(res.sim_time)
         bag = self._start_bag(run_dir)
-        monitor = TrialMonitor(task.goal.x, task.goal.y, task.goal.radius, task.time_limit, start_t, start_t)
+        monitor = TrialMonitor(task.goal.x, task.goal.y, task.goal.radius, task.time_limit, start_t, start_t,
+                               task.start_x, task.start_y)
         request = self._monitor(monitor)
         self._stop_bag(bag)
-        _, end_t = self.client.end_trial(plot=False)
-        if monitor.outcome == "goal":
-            end_t = min(end_t, monitor.t)
+        self.client.end_trial(plot=False)
+        end_t = min(monitor.t, start_t + task.time_limit)      # when it ended (the sim may have stepped on)
         if self.control.paused:
             self.control.paused = False
             self.client.set_params("sim", {"paused": False})

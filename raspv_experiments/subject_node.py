@@ -54,10 +54,8 @@ class SubjectNode(RaspvNode):
         return None
 
     def on_map(self, msg: PhospheneMap) -> None:
-        x = np.frombuffer(bytes(msg.x), np.float32) if not isinstance(msg.x, np.ndarray) else msg.x
-        y = np.frombuffer(bytes(msg.y), np.float32) if not isinstance(msg.y, np.ndarray) else msg.y
-        self.layout = PhospheneLayout(np.asarray(x, float), np.asarray(y, float), int(msg.width), int(msg.height),
-                                      float(msg.focal_px), int(msg.map_id))
+        self.layout = PhospheneLayout(np.asarray(msg.x, float), np.asarray(msg.y, float), int(msg.width),
+                                      int(msg.height), float(msg.focal_px), int(msg.map_id))
         self.policy = make_policy(self.params["policy"], self.layout, policy_config(self.params, self.trial_seed))
 
     def on_instructions(self, msg: String) -> None:

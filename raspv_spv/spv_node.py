@@ -224,6 +224,8 @@ class SpvNode(RaspvNode):
             if now - self._waiting_since > 1.0:          # not just the first frame overtaking the info
                 self.warn_throttled("no-info", f"images arrive but no camera info on {topics.CAMERA_INFO}; "
                                                "phosphenes stay off until it comes")
+            if self.params["headless"]:
+                self._headless_tick(self.stamps[which])
             return
         inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
                              camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels,

@@ -89,6 +89,11 @@ def test_trial_monitor_ends_at_goal_time_limit_or_abort():
     m = TrialMonitor(5.0, 0.0, 0.5, 10.0, 100.0, 100.0)
     assert m.update(99.0) is None and m.elapsed == 0.0             # the clock never goes back
     assert m.update(110.0, 0.0, 0.0) == "time_limit"
+    # a pose from before the reset (the last trial ended in this goal) does not end the new trial
+    m = TrialMonitor(5.0, 0.0, 0.5, 10.0, 100.0, 100.0, start_x=0.0, start_y=0.0)
+    assert m.update(100.1, 5.0, 0.0) is None and not m.armed
+    assert m.update(100.2, 0.1, 0.0) is None and m.armed
+    assert m.update(103.0, 5.0, 0.1) == "goal"
     m = TrialMonitor(5.0, 0.0, 0.5, 10.0, 100.0, 100.0)
     m.abort()
     assert m.update(101.0, 5.0, 0.0) == "aborted"
