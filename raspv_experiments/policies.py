@@ -6,15 +6,17 @@ what a person knows about their own body: the head pitch they hold and their eye
 returns a walking command (m/s, rad/s) and the head pitch. Policies:
 
 ``follow_path``
-    steers toward the bright trail of the path overlay: the phosphenes near the frame's
-    brightest (≥ ``bright_ratio`` × max) are taken as the trail, projected onto the floor
+    steers toward the bright trail of the path overlay: the phosphenes near the brightest it
+    saw lately (≥ ``bright_ratio`` × that) are taken as the trail, projected onto the floor
     through the head pose the subject holds (pure pursuit on the point about ``lookahead`` m
     ahead); without a trail in view it turns in place toward where it last saw one.
 ``wander_avoid``
     walks forward and turns away from bright phosphenes in the lower part of the view (near
     things: obstacles in Wall-Obstacles, near surfaces in depth mode).
 
-Both add seeded motor noise (``noise`` rad/s) so several seeds make a population. Frames:
+Both add seeded motor noise (``noise`` rad/s) so several seeds make a population, and both
+notice when they walk into something they did not see — the view stops changing while they walk
+(no optic flow) — and step back, turning a little. Frames:
 phosphene image pixels (x right, y down, principal point at the image centre, focal f_P);
 head frame x forward, y left, z up; pitch > 0 looks down.
 """
@@ -56,9 +58,9 @@ class Command:
 class PolicyConfig:
     max_linear: float = 0.6          # m/s
     max_angular: float = 1.0         # rad/s
-    head_pitch_deg: float = 30.0     # held head pitch (looking down at the floor ahead)
+    head_pitch_deg: float = 40.0     # held head pitch (looking down at the floor ahead)
     eye_height: float = 1.6          # m
-    lookahead: float = 1.8           # m, follow_path's pursuit distance
+    lookahead: float = 1.0           # m, follow_path's pursuit distance
     bright_ratio: float = 0.85       # follow_path: trail phosphenes are ≥ this × the frame's brightest
     min_brightness: float = 0.15     # nothing dimmer counts as seen
     near_distance: float = 1.6       # m, wander_avoid: floor closer than this is "near"
@@ -82,15 +84,37 @@ class Policy(ABC):
         self.ground = self.rays[:, :2] * scale[:, None]        # floor point each phosphene looks at (x fwd, y left) [m]
         self.ground_distance = np.hypot(self.ground[:, 0], self.ground[:, 1])
 
+    STILL_FRAMES = 12          # frames walking with an unchanging view: blocked
+    BACK_FRAMES = 8            # frames to step back and turn then
+    STILL_CHANGE = 0.005       # mean brightness change per frame below which the view is unchanged
+
     def act(self, brightness: np.ndarray) -> Command:
         b = np.nan_to_num(np.asarray(brightness, dtype=float), nan=0.0)
         if b.shape != (len(self.layout.x),):
             raise ValueError(f"{len(b)} brightness values for {len(self.layout.x)} phosphenes")
-        v, w = self.decide(b)
+        v, w = self.unblock(b) or self.decide(b)
+        self._last_v = v
         c = self.config
         w += self.rng.normal(0.0, c.noise) if c.noise > 0 else 0.0
         return Command(float(np.clip(v, -c.max_linear, c.max_linear)), float(np.clip(w, -c.max_angular, c.max_angular)),
                        math.radians(c.head_pitch_deg))
+
+    def unblock(self, b: np.ndarray) -> tuple[float, float] | None:
+        """Walking into something the subject did not see: the view stops changing while they
+        walk (no optic flow), so they step back and turn a little. A command while that lasts."""
+        prev, self._prev = getattr(self, "_prev", None), b
+        back = getattr(self, "_back", 0)
+        if back > 0:
+            self._back = back - 1
+            return -0.3 * self.config.max_linear, 0.6 * self.config.max_angular * getattr(self, "_back_side", 1.0)
+        walking = getattr(self, "_last_v", 0.0) > 0.1
+        still = prev is not None and walking and float(np.abs(b - prev).mean()) < self.STILL_CHANGE
+        self._still = getattr(self, "_still", 0) + 1 if still else 0
+        if self._still >= self.STILL_FRAMES:
+            self._still, self._back = 0, self.BACK_FRAMES
+            self._back_side = float(self.rng.choice([-1.0, 1.0]))
+            return self.unblock(b)
+        return None
 
     @abstractmethod
     def decide(self, brightness: np.ndarray) -> tuple[float, float]:
@@ -100,16 +124,21 @@ class Policy(ABC):
 class FollowPath(Policy):
     name = "follow_path"
 
+    PEAK_DECAY = 0.97                        # per frame: the remembered brightest fades over seconds
+
     def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None) -> None:
         super().__init__(layout, config)
         self.last_side = 1.0                 # +1: the trail was last seen to the left
+        self.peak = 0.0                      # the brightest the subject saw lately
 
     def trail(self, b: np.ndarray) -> np.ndarray:
-        """Indices of the phosphenes taken as the trail on the floor."""
+        """Indices of the phosphenes taken as the trail on the floor: those near the brightest
+        seen lately — so when the trail leaves the view, the dimmed rest is not taken for it."""
         top = float(b.max()) if len(b) else 0.0
+        self.peak = max(top, self.peak * self.PEAK_DECAY)
         if top < self.config.min_brightness:
             return np.empty(0, int)
-        return np.flatnonzero((b >= self.config.bright_ratio * top) & np.isfinite(self.ground_distance))
+        return np.flatnonzero((b >= self.config.bright_ratio * self.peak) & np.isfinite(self.ground_distance))
 
     def decide(self, b: np.ndarray) -> tuple[float, float]:
         c = self.config

@@ -11,6 +11,7 @@ A sweep file (``experiments/*_sweep.yaml``; docs/experiments.md)::
       spv.mode: [grey, chess_wall_obstacles]
       spv.device: [argus_ii, optimist]
     repetitions: 1                     # optional: overrides the protocol's
+    graph_overrides: [sim.width:=160]  # optional: graph parameters for the sweep (NODE.PARAM:=VALUE)
     tasks: [corridor]                  # optional: a subset of the protocol's tasks
     subject_params: {max_linear: 0.6}  # optional: parameters of the subject node
 
@@ -40,7 +41,7 @@ from raspv_experiments.protocol import Protocol, ProtocolError, parse_protocol, 
 from raspv_experiments.subject_params import POLICY_NAMES
 
 _KEYS = {"name", "protocol", "policy", "subjects", "factors", "conditions", "tasks", "repetitions", "subject_params",
-         "workers"}
+         "workers", "graph_overrides"}
 RAY_HINT = "pip install 'ray[default]>=2.40' (or: .venv/bin/pip install -e '.[cluster]')"
 
 
@@ -128,16 +129,42 @@ def load_sweep(path: str | Path) -> Sweep:
         workers = None
     if errors:
         raise ProtocolError(errors)
-    if isinstance(pdoc.get("graph"), str):             # resolve relative to the protocol, not the copy
+    if isinstance(pdoc.get("graph"), str):             # the graph file, inlined (the session copy is complete)
+        from raspv_bringup.graph import resolve_graph_path
+
         local_graph = ppath.parent / pdoc["graph"]
-        if local_graph.is_file():
-            pdoc["graph"] = str(local_graph.resolve())
+        gpath = local_graph if local_graph.is_file() else resolve_graph_path(pdoc["graph"])
+        try:
+            pdoc["graph"] = yaml.safe_load(gpath.read_text())
+        except (OSError, yaml.YAMLError) as exc:
+            raise ProtocolError([f"{ppath}: graph: cannot read {gpath} ({exc})"]) from None
+    _apply_overrides(pdoc, doc.get("graph_overrides", []), path)
     for task in (pdoc.get("tasks") or {}).values():
         if isinstance(task, dict) and isinstance(task.get("world"), str) and (ppath.parent / task["world"]).is_file():
             task["world"] = str((ppath.parent / task["world"]).resolve())
     text = f"# sweep {path} of protocol {ppath}\n" + yaml.safe_dump(pdoc, sort_keys=False)
     protocol = parse_protocol(pdoc, path, text)
     return Sweep(path, protocol.name, protocol, policy, subjects, good, workers)
+
+
+def _apply_overrides(pdoc: dict, overrides: Any, path: Path) -> None:
+    """``NODE.PARAM:=VALUE`` entries into the protocol's graph (validated with it)."""
+    from raspv_bringup.graph import GraphError, parse_override
+
+    if not isinstance(overrides, list) or not all(isinstance(o, str) for o in overrides):
+        raise ProtocolError([f"{path}: graph_overrides: expected a list of NODE.PARAM:=VALUE, e.g. [sim.width:=160]"])
+    graph = pdoc.get("graph")
+    for text in overrides:
+        try:
+            node, param, value = parse_override(text)
+        except GraphError as exc:
+            raise ProtocolError([f"{path}: graph_overrides: {exc.errors[0]}"]) from None
+        if not isinstance(graph, dict):
+            raise ProtocolError([f"{path}: graph_overrides: the protocol has no graph to override"])
+        section = graph.setdefault(node, {"ros__parameters": {}})
+        if not isinstance(section, dict):
+            raise ProtocolError([f"{path}: graph_overrides: {text}: the graph's {node} section is not a mapping"])
+        section.setdefault("ros__parameters", {})[param] = value
 
 
 def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[str]) -> dict[str, Any]:

@@ -113,16 +113,17 @@ class Simulation:
         if not all(math.isfinite(v) for v in (x, y, yaw)):
             raise ValueError(f"start pose must be finite numbers, got ({x}, {y}, {yaw})")
         old = (self.avatar.x, self.avatar.y, self.avatar.yaw)
+        self.world.update_people(0.0)                     # people where they start, then check the pose
         self.avatar.teleport(x, y, yaw)
         problem = self.avatar.placement_problem()
         if problem:
             self.avatar.teleport(*old)
+            self.world.update_people(self.t - self.people_t0)
             raise ValueError(f"the avatar at ({x:.2f}, {y:.2f}) {problem}")
         self.avatar.set_head((0.0, 0.0, 0.0, 1.0))
         self.avatar.path_length = 0.0
         self.linear = self.angular = 0.0
         self.people_t0 = self.t
-        self.world.update_people(0.0)
         self.monitor = CollisionMonitor(self.monitor.debounce_s)
         self.goals_reached = {}
         self.trial_goals = tuple(goals)

@@ -72,3 +72,15 @@ def test_seeded_noise_and_validation():
         make_policy("teleport", layout)
     with pytest.raises(ValueError, match="brightness values for 100 phosphenes"):
         make_policy("follow_path", layout).act(np.zeros(5))
+
+
+def test_a_blocked_subject_steps_back():
+    """Walking while the view does not change (no optic flow): the subject steps back and turns."""
+    layout = grid_layout()
+    p = FollowPath(layout, PolicyConfig(noise=0.0))
+    frame = trail(layout, p, 0.0)
+    cmds = [p.act(frame) for _ in range(p.STILL_FRAMES + 2)]
+    assert cmds[0].linear > 0.1
+    assert cmds[-1].linear < 0 and cmds[-1].angular != 0.0
+    later = [p.act(frame) for _ in range(p.BACK_FRAMES + 2)]
+    assert later[-1].linear > 0.1                                        # then walks on
