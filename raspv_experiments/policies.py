@@ -85,8 +85,9 @@ class Policy(ABC):
         self.ground_distance = np.hypot(self.ground[:, 0], self.ground[:, 1])
 
     STILL_FRAMES = 12          # frames walking with an unchanging view: blocked
-    BACK_FRAMES = 8            # frames to step back and turn then
-    STILL_CHANGE = 0.005       # mean brightness change per frame below which the view is unchanged
+    BACK_FRAMES = 15           # frames to step back and turn then
+    STILL_CHANGE = 0.002       # mean brightness change per frame below which the view is unchanged
+    # (measured in the office at 10 Hz: walking changes it by 0.005–0.25 per frame, blocked < 0.0005)
 
     def act(self, brightness: np.ndarray) -> Command:
         b = np.nan_to_num(np.asarray(brightness, dtype=float), nan=0.0)
@@ -106,7 +107,7 @@ class Policy(ABC):
         back = getattr(self, "_back", 0)
         if back > 0:
             self._back = back - 1
-            return -0.3 * self.config.max_linear, 0.6 * self.config.max_angular * getattr(self, "_back_side", 1.0)
+            return -0.5 * self.config.max_linear, 0.6 * self.config.max_angular * getattr(self, "_back_side", 1.0)
         walking = getattr(self, "_last_v", 0.0) > 0.1
         still = prev is not None and walking and float(np.abs(b - prev).mean()) < self.STILL_CHANGE
         self._still = getattr(self, "_still", 0) + 1 if still else 0

@@ -12,6 +12,7 @@ A sweep file (``experiments/*_sweep.yaml``; docs/experiments.md)::
       spv.device: [argus_ii, optimist]
     repetitions: 1                     # optional: overrides the protocol's
     graph_overrides: [sim.width:=160]  # optional: graph parameters for the sweep (NODE.PARAM:=VALUE)
+    time_limit: 40                     # optional: every task's time limit [s]
     tasks: [corridor]                  # optional: a subset of the protocol's tasks
     subject_params: {max_linear: 0.6}  # optional: parameters of the subject node
 
@@ -41,7 +42,7 @@ from raspv_experiments.protocol import Protocol, ProtocolError, parse_protocol, 
 from raspv_experiments.subject_params import POLICY_NAMES
 
 _KEYS = {"name", "protocol", "policy", "subjects", "factors", "conditions", "tasks", "repetitions", "subject_params",
-         "workers", "graph_overrides"}
+         "workers", "graph_overrides", "time_limit"}
 RAY_HINT = "pip install 'ray[default]>=2.40' (or: .venv/bin/pip install -e '.[cluster]')"
 
 
@@ -115,6 +116,14 @@ def load_sweep(path: str | Path) -> Sweep:
             errors.append(f"{path}: tasks: expected a list of the protocol's tasks ({', '.join(have)})")
         else:
             pdoc["tasks"] = {w: have[w] for w in wanted}
+    if "time_limit" in doc:
+        limit = doc["time_limit"]
+        if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0:
+            errors.append(f"{path}: time_limit: expected a positive number of seconds, got {limit!r}")
+        else:
+            for task in (pdoc.get("tasks") or {}).values():
+                if isinstance(task, dict):
+                    task["time_limit"] = limit
     if "repetitions" in doc:
         pdoc["design"] = {**(pdoc.get("design") or {}), "repetitions": doc["repetitions"]}
     subject_params = doc.get("subject_params", {}) or {}

@@ -16,7 +16,7 @@ def test_path_overlay_beats_downsampling_in_success_rate(tmp_path):
     (tmp_path / "sweep.yaml").write_text(yaml.safe_dump({
         "name": "office_regression", "protocol": "office_navigation", "policy": "follow_path", "subjects": 2,
         "conditions": ["chess_wall_obstacles_path", "downsampling"], "repetitions": 1,
-        "graph_overrides": ["sim.width:=160", "sim.height:=120", "sim.renderer:=tiny"]}))
+        "graph_overrides": ["sim.width:=160", "sim.height:=120", "sim.renderer:=tiny"], "time_limit": 40}))
     sweep = load_sweep(tmp_path / "sweep.yaml")
     out = tmp_path / "out"
     results = run_sweep(sweep, out, workers=2, say=print)
