@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,18 +84,20 @@ class Policy(ABC):
         scale = np.where(below, self.config.eye_height / np.maximum(-self.rays[:, 2], 1e-6), np.nan)
         self.ground = self.rays[:, :2] * scale[:, None]        # floor point each phosphene looks at (x fwd, y left) [m]
         self.ground_distance = np.hypot(self.ground[:, 0], self.ground[:, 1])
+        self._history: deque[tuple[np.ndarray, float]] = deque(maxlen=self.STILL_FRAMES)
+        self._back, self._back_side = 0, 1.0
 
-    STILL_FRAMES = 12          # frames walking with an unchanging view: blocked
+    STILL_FRAMES = 12          # frames walking with an (almost) unchanging view: blocked
     BACK_FRAMES = 15           # frames to step back and turn then
-    STILL_CHANGE = 0.002       # mean brightness change per frame below which the view is unchanged
-    # (measured in the office at 10 Hz: walking changes it by 0.005–0.25 per frame, blocked < 0.0005)
+    STILL_CHANGE = 0.03        # mean brightness change over STILL_FRAMES below which the view is unchanged
+    # (measured in the office at 10 Hz, 0.6 m/s: walking changes it by 0.1–0.28 over 12 frames)
 
     def act(self, brightness: np.ndarray) -> Command:
         b = np.nan_to_num(np.asarray(brightness, dtype=float), nan=0.0)
         if b.shape != (len(self.layout.x),):
             raise ValueError(f"{len(b)} brightness values for {len(self.layout.x)} phosphenes")
         v, w = self.unblock(b) or self.decide(b)
-        self._last_v = v
+        self._history.append((b, v))
         c = self.config
         w += self.rng.normal(0.0, c.noise) if c.noise > 0 else 0.0
         return Command(float(np.clip(v, -c.max_linear, c.max_linear)), float(np.clip(w, -c.max_angular, c.max_angular)),
@@ -103,16 +106,13 @@ class Policy(ABC):
     def unblock(self, b: np.ndarray) -> tuple[float, float] | None:
         """Walking into something the subject did not see: the view stops changing while they
         walk (no optic flow), so they step back and turn a little. A command while that lasts."""
-        prev, self._prev = getattr(self, "_prev", None), b
-        back = getattr(self, "_back", 0)
-        if back > 0:
-            self._back = back - 1
-            return -0.5 * self.config.max_linear, 0.6 * self.config.max_angular * getattr(self, "_back_side", 1.0)
-        walking = getattr(self, "_last_v", 0.0) > 0.1
-        still = prev is not None and walking and float(np.abs(b - prev).mean()) < self.STILL_CHANGE
-        self._still = getattr(self, "_still", 0) + 1 if still else 0
-        if self._still >= self.STILL_FRAMES:
-            self._still, self._back = 0, self.BACK_FRAMES
+        if self._back > 0:
+            self._back -= 1
+            return -0.5 * self.config.max_linear, 0.6 * self.config.max_angular * self._back_side
+        h = self._history
+        if len(h) == h.maxlen and all(v > 0.1 for _, v in h) and float(np.abs(b - h[0][0]).mean()) < self.STILL_CHANGE:
+            h.clear()
+            self._back = self.BACK_FRAMES
             self._back_side = float(self.rng.choice([-1.0, 1.0]))
             return self.unblock(b)
         return None
