@@ -130,7 +130,8 @@ def stats_section(tests: list[MeasureTests]) -> str:
     parts = []
     for t in tests:
         parts.append(f"<h3>{html.escape(t.measure)}</h3>")
-        parts.append(f"<p>{len(t.subjects)} subjects with every condition.")
+        n = len(t.subjects)
+        parts.append(f"<p>{n} subject{'' if n == 1 else 's'} with every condition.")
         if not math.isnan(t.friedman_p):
             parts.append(f" Friedman χ²({len(t.conditions) - 1}) = {t.friedman_statistic:.2f}, p = {t.friedman_p:.3g}.")
         elif t.friedman_note:

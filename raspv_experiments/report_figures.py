@@ -56,6 +56,8 @@ def box_strip(rows, conditions, key: str, ylabel: str, out: Path, name: str, tit
     ax.set_xticks(range(1, len(conditions) + 1), conditions, rotation=20 if len(conditions) > 3 else 0, ha="right"
                   if len(conditions) > 3 else "center")
     ax.set_ylabel(ylabel)
+    if key == "collisions":
+        ax.set_ylim(bottom=-0.3, top=max([1.0] + [v for d in data for v in d]) + 0.5)
     ax.set_title(title, fontsize=9)
     return _save(fig, out, name)
 
@@ -120,14 +122,16 @@ def trajectories(rows, conditions, task: str, out: Path, geometry=None) -> str:
             ax.imshow(img, origin="lower", extent=extent, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
         for r in (r for r in trials if r["condition"] == c):
             t = r["trajectory"]
-            ax.plot(t["x"], t["y"], color="tab:green" if r.get("success") else "tab:red", lw=1.0, alpha=0.8)
+            color = "tab:green" if r.get("success") else "tab:red"
+            ax.plot(t["x"], t["y"], color=color, lw=1.0, alpha=0.8)
+            ax.plot(t["x"][-1:], t["y"][-1:], "x", color=color, ms=4)          # where it ended
         first = next((r for r in trials if r["condition"] == c), None) or (trials[0] if trials else None)
         if first is not None:
             ax.plot(first["start"][0], first["start"][1], "k^", ms=5)
             goal = first["goal"]
             ax.add_patch(plt.Circle((goal["x"], goal["y"]), goal["radius"], fill=False, color="tab:blue", lw=1.2))
         if xs and ys:
-            pad = 1.0
+            pad = 1.5
             ax.set_xlim(min(xs) - pad, max(xs) + pad)
             ax.set_ylim(min(ys) - pad, max(ys) + pad)
         ax.set_aspect("equal")
@@ -135,5 +139,5 @@ def trajectories(rows, conditions, task: str, out: Path, geometry=None) -> str:
         ax.tick_params(labelsize=7)
     for k in range(len(conditions), nrows * cols):
         axes[k // cols][k % cols].axis("off")
-    fig.suptitle(f"Trajectories, task {task} (x, y in m; ▲ start, ○ goal; green: reached)", fontsize=9)
+    fig.suptitle(f"Trajectories, task {task} (x, y in m; ▲ start, ○ goal, × end; green: reached)", fontsize=9)
     return _save(fig, out, f"trajectories-{task}")
