@@ -56,6 +56,10 @@ def _err(text: str) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    from raspv_sim.native_output import captured_native_output
+
+    with captured_native_output():      # PyBullet's import banner is not for the experimenter
+        import pybullet  # noqa: F401
     return {"check": _check, "plan": _plan, "run": _run, "sweep": _sweep, "report": _report}[args.action](args)
 
 
@@ -72,9 +76,7 @@ def _check(args) -> int:
     code = 0
     for f in args.files:
         try:
-            is_sweep = Path(f).is_file() and "policy:" in Path(f).read_text(errors="replace") \
-                and "factors:" in Path(f).read_text(errors="replace")
-            if is_sweep:
+            if _is_sweep(Path(f)):
                 s = load_sweep(f)
                 print(f"ok: {f}: sweep of {len(s.subjects)} virtual subjects × {len(s.protocol.conditions)} conditions")
             else:
@@ -86,6 +88,17 @@ def _check(args) -> int:
                 print(line, file=sys.stderr)
             code = 2
     return code
+
+
+def _is_sweep(path: Path) -> bool:
+    """A sweep file names a protocol; a protocol file has a graph."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return False
+    return isinstance(doc, dict) and "protocol" in doc and "graph" not in doc
 
 
 def _plan(args) -> int:
