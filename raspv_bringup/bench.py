@@ -11,7 +11,7 @@ BENCHES: dict[str, str] = {
     "sim": "raspv_sim.bench",
     "scene": "raspv_perception.bench",
     "spv": "raspv_spv.bench",
-    "bag": "raspv_camera.bag_bench",
+    "bag": "raspv_bags.bench",
     "hmd": "raspv_hmd.bench",
 }
 
