@@ -101,7 +101,7 @@ class ClassTable:
         return cls.from_entries(LABEL_SETS[key], key)
 
     @classmethod
-    def for_world(cls, classes: Sequence[str], world: str = "sim") -> "ClassTable":
+    def for_world(cls, classes: Sequence[str]) -> "ClassTable":
         """The virtual world's classes (``/sim/classes``), each with the synonyms of the ADE20K class
         that covers it (so "trash can" finds the world's ``bin``)."""
         names = [normalise(c) for c in classes]
@@ -110,7 +110,7 @@ class ClassTable:
             c = canonical(n)
             group = [c] + [s for s, p in _ADE_SYNONYM.items() if p == c]
             synonyms.append(tuple(dict.fromkeys(g for g in group if g != n)) if c != n or group[1:] else ())
-        return cls(tuple(names), tuple(synonyms), palette(names), "sim" if world == "sim" else f"sim:{world}")
+        return cls(tuple(names), tuple(synonyms), palette(names), "sim")
 
     # -- lookup ---------------------------------------------------------------------------------
     def __len__(self) -> int:

@@ -78,7 +78,7 @@ def drop_small(mask: np.ndarray, min_pixels: int) -> np.ndarray:
 
 
 def depth_clusters(candidates: np.ndarray, depth: np.ndarray | None, jump: float) -> tuple[int, np.ndarray]:
-    """Connected components (8-neighbours) of ``candidates`` (H, W) bool, cut where neighbouring
+    """Connected components (4-neighbours) of ``candidates`` (H, W) bool, cut where neighbouring
     depths [m] differ by more than ``jump`` × the nearer one. Returns (count incl. 0, ids (H, W))."""
     cut = candidates.copy()
     if depth is not None:
@@ -90,7 +90,7 @@ def depth_clusters(candidates: np.ndarray, depth: np.ndarray | None, jump: float
         edge[:, 1:] |= dx
         edge[1:, :] |= dy          # the far side of each step: one pixel wide cuts
         cut &= ~edge
-    count, ids = cv2.connectedComponents(cut.astype(np.uint8), connectivity=8)
+    count, ids = cv2.connectedComponents(cut.astype(np.uint8), connectivity=4)   # 4: one-pixel cuts hold
     return count, ids
 
 

@@ -99,7 +99,7 @@ class SegmentationNode(RaspvNode):
     def on_sim_classes(self, msg: String) -> None:
         try:
             doc = json.loads(msg.data)
-            table = ClassTable.for_world(doc["classes"], doc.get("world", "sim"))
+            table = ClassTable.for_world(doc["classes"])
         except (ValueError, KeyError, TypeError) as exc:
             self.warn_throttled("classes", f"ignoring {topics.SIM_CLASSES}: {exc}")
             return
