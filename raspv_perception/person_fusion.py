@@ -1,6 +1,9 @@
 """Person masks made whole by depth (no ROS): the network's person probability fused with scene
 perception's obstacle clusters.
 
+The fusion works on the scene labels subsampled to about ``FUSION_WIDTH`` px wide (they come
+in 4-pixel blocks at the scene node's default stride), then the mask is scaled back.
+
 The selfie network was trained on near, frontal people at 256²; people 2–5 m away, seen from
 behind or partly hidden get faint or partial masks, and the network also fires on some things
 that are not people. Scene perception (``/scene/labels``) says which pixels are floor, walls,
@@ -32,6 +35,9 @@ import cv2
 import numpy as np
 
 from raspv_perception import scene_labels as L
+
+FUSION_WIDTH = 320          # px: the fusion runs on the scene labels subsampled to about this width
+
 
 @dataclass(frozen=True)
 class FusionConfig:
@@ -105,9 +111,13 @@ def fuse_person(probability: np.ndarray, scene_labels: np.ndarray | None = None,
         mask = drop_small(prob >= config.threshold, int(config.min_area * H * W))
         return FusionResult(mask)
     labels = np.asarray(scene_labels)
+    if depth is not None and np.shape(depth) != labels.shape:
+        raise ValueError(f"depth {np.shape(depth)} and scene labels {labels.shape} differ in size")
+    step = max(1, labels.shape[1] // FUSION_WIDTH)      # scene labels come in blocks of 4 px anyway
+    if step > 1:
+        labels = labels[::step, ::step]
+        depth = None if depth is None else np.asarray(depth)[::step, ::step]
     h, w = labels.shape
-    if depth is not None and np.shape(depth) != (h, w):
-        raise ValueError(f"depth {np.shape(depth)} and scene labels {(h, w)} differ in size")
     p = prob if (h, w) == (H, W) else cv2.resize(prob, (w, h), interpolation=cv2.INTER_LINEAR)
     obstacle = (labels == L.OBSTACLE) | (labels == L.OTHER)
     count, ids = depth_clusters(obstacle, depth, config.depth_jump)
