@@ -69,6 +69,9 @@ def model_bench(args) -> list[str]:
     from raspv_perception.scene_perception import ScenePerception
     from raspv_perception.segmentation_models import PersonModel
 
+    import cv2
+
+    cv2.setNumThreads(1)                                        # one core: no OpenCV thread pool either
     model = PersonModel(threads=1)
     print("part 1 — person model per 640x480 frame, one thread [ms wall clock; CPU time of this process]")
     all_model, all_fused, all_cpu = [], [], []
