@@ -13,6 +13,7 @@ BENCHES: dict[str, str] = {
     "spv": "raspv_spv.bench",
     "bag": "raspv_bags.bench",
     "hmd": "raspv_hmd.bench",
+    "seg": "raspv_perception.segmentation_bench",
 }
 
 
