@@ -11,8 +11,9 @@ BENCHES: dict[str, str] = {
     "sim": "raspv_sim.bench",
     "scene": "raspv_perception.bench",
     "spv": "raspv_spv.bench",
-    "bag": "raspv_camera.bag_bench",
+    "bag": "raspv_bags.bench",
     "hmd": "raspv_hmd.bench",
+    "seg": "raspv_perception.segmentation_bench",
 }
 
 

@@ -23,7 +23,8 @@ HEAD_ORIENTATION = "/head/orientation"      # geometry_msgs/QuaternionStamped, h
 SCENE_STRUCTURE = "/scene/structure"        # raspv_msgs/SceneStructure
 SCENE_LABELS = "/scene/labels"              # sensor_msgs/Image mono8 per-pixel scene class
 STAIRS = "/stairs"                          # raspv_msgs/StairDetection
-SEGMENTATION_LABELS = "/segmentation/labels"  # sensor_msgs/Image mono8 class ids
+SEGMENTATION_LABELS = "/segmentation/labels"  # sensor_msgs/Image mono8 (mono16 beyond 256 classes) class ids
+SEGMENTATION_CLASSES = "/segmentation/classes"  # raspv_msgs/ClassNames, latched
 
 # Navigation.
 NAV_PATH = "/nav/path"                      # nav_msgs/Path, world frame

@@ -26,18 +26,18 @@ BUILTIN_CLASSES: tuple[str, ...] = ("none", "floor", "wall", "door", "stairs", "
                                     "bed", "shelf", "bin", "person", "obstacle")
 MAX_CLASSES = 256  # labels travel as mono8
 
-FURNITURE_TYPES = ("table", "chair", "sofa", "bed", "shelf", "bin", "door", "box", "cylinder", "rug")
+FURNITURE_TYPES = ("table", "chair", "sofa", "bed", "shelf", "bin", "door", "box", "cylinder", "rug", "laptop")
 FURNITURE_DEFAULT_CLASS = {"box": "obstacle", "cylinder": "obstacle", "rug": "floor"}
 # Typical sizes [length along the object's x (its front faces +x), width, height] in metres.
 FURNITURE_DEFAULT_SIZE = {
     "table": (1.2, 0.8, 0.75), "chair": (0.45, 0.45, 0.9), "sofa": (0.9, 2.0, 0.85), "bed": (2.0, 1.4, 0.55),
     "shelf": (0.35, 1.0, 1.8), "bin": (0.4, 0.4, 0.6), "door": (0.9, 0.04, 2.05), "box": (0.5, 0.5, 0.5),
-    "cylinder": (0.4, 0.4, 1.0), "rug": (2.0, 1.4, 0.01),
+    "cylinder": (0.4, 0.4, 1.0), "rug": (2.0, 1.4, 0.01), "laptop": (0.24, 0.34, 0.24),
 }
 FURNITURE_DEFAULT_COLOR = {
     "table": (0.55, 0.38, 0.22), "chair": (0.35, 0.22, 0.14), "sofa": (0.25, 0.35, 0.55), "bed": (0.45, 0.3, 0.2),
     "shelf": (0.6, 0.45, 0.3), "bin": (0.25, 0.45, 0.3), "door": (0.7, 0.55, 0.38), "box": (0.6, 0.6, 0.62),
-    "cylinder": (0.6, 0.6, 0.62), "rug": (0.6, 0.2, 0.2),
+    "cylinder": (0.6, 0.6, 0.62), "rug": (0.6, 0.2, 0.2), "laptop": (0.72, 0.73, 0.76),
 }
 COLOR_NAMES = {
     "white": (0.95, 0.95, 0.95), "black": (0.08, 0.08, 0.08), "grey": (0.5, 0.5, 0.5), "gray": (0.5, 0.5, 0.5),

@@ -36,8 +36,9 @@ from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
-from raspv_msgs.msg import StairDetection
+from raspv_msgs.msg import ClassNames, StairDetection
 from raspv_perception.scene_msg import structure_from_msg
+from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
 from raspv_spv.config import config_from_node_params
 from raspv_spv.device import DeviceError
@@ -139,10 +140,13 @@ class SpvNode(RaspvNode):
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
                   "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels),
                   "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path),
-                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs)}
+                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs),
+                  "segmentation": (Image, topics.SEGMENTATION_LABELS, self.on_segmentation),
+                  "segmentation_classes": (ClassNames, topics.SEGMENTATION_CLASSES, self.on_segmentation_classes)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
-                self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
+                qos = LATCHED_QOS if name == "segmentation_classes" else SENSOR_QOS
+                self._subs[name] = self.create_subscription(msg_type, topic, callback, qos)
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
         unsupported = sorted(set(needs) - set(wanted) - {"camera"})
@@ -188,6 +192,28 @@ class SpvNode(RaspvNode):
         """The newest staircase detection (camera frame of its depth image) for the stairs overlay."""
         stair = staircase_from_msg(msg)
         self.extras["stairs"] = [] if stair is None else [stair]
+
+    def on_segmentation(self, msg: Image) -> None:
+        """Keep the last label images with their stamps (the highlight overlay takes the one of
+        its frame); when the labels of the frame the levels came from arrive late, redo them."""
+        try:
+            labels = image_to_array(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_LABELS}: {exc}")
+            return
+        stamp = stamp_to_seconds(msg.header.stamp)
+        self.extras["segmentation"] = (tuple(self.extras.get("segmentation", ())) + ((stamp, labels),))[-8:]
+        levels = self._levels
+        if levels is not None and abs(levels[2] - stamp) < 1e-6:
+            which = next((k for k, t in self.stamps.items() if abs(t - stamp) < 1e-6), None)
+            if which is not None:
+                self._frame_arrived(which)
+
+    def on_segmentation_classes(self, msg: ClassNames) -> None:
+        try:
+            self.extras["segmentation_classes"] = classes_from_msg(msg)
+        except ValueError as exc:
+            self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_CLASSES}: {exc}")
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)

@@ -42,4 +42,12 @@ PARAMS = [
     Param("edge_low", 50.0, "Canny lower threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("edge_high", 150.0, "Canny upper threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("chess_tile", 0.5, "checkerboard tile size (chess modes)", minimum=0.05, maximum=5.0, unit="m"),
+    Param("highlight.classes", ["person"], "classes the highlight overlay lights (names or synonyms of the "
+          "segmentation's classes)"),
+    Param("highlight.pick", "all", "highlight every pixel of the classes, or one instance: the largest or the nearest",
+          choices=("all", "largest", "nearest")),
+    Param("highlight.dim", 0.5, "level factor of the phosphenes the highlight overlay does not light", minimum=0.0,
+          maximum=1.0),
+    Param("highlight.max_age", 0.2, "use segmentation labels at most this far from the frame's stamp", minimum=0.0,
+          maximum=5.0, unit="s"),
 ]

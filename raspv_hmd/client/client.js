@@ -15,7 +15,7 @@
   const DRAG_RAD_PER_PX = 0.25 * Math.PI / 180;
   const MAX_YAW = Math.PI / 2, MAX_PITCH = Math.PI / 3;
   const STICK_DEADZONE = 0.15, STICK_HEAD_RATE = Math.PI / 2;   // rad/s at full deflection
-  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,123456789".split(""));
+  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,123456789tTy".split(""));   // t/T/y: highlight
   const MOVE_KEYS = {
     w: [1, 0], arrowup: [1, 0], s: [-1, 0], arrowdown: [-1, 0],
     a: [0, 1], arrowleft: [0, 1], d: [0, -1], arrowright: [0, -1],

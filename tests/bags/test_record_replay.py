@@ -14,8 +14,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image
 from std_msgs.msg import String
 
-from raspv_camera.bag_reader import BagReader
-from raspv_camera.bag_repair import repair_bag
+from raspv_bags.reader import BagReader
+from raspv_bags.repair import repair_bag
 from raspv_common import topics as T
 from raspv_common.qos import LATCHED_QOS
 
@@ -154,7 +154,7 @@ def test_bad_bags_stop_the_replay_node_with_one_line(graph, tmp_path):
 
 
 def test_topics_of_types_not_installed_are_skipped_with_a_warning(tmp_path):
-    from raspv_camera.bag_writer import BagWriter
+    from raspv_bags.writer import BagWriter
 
     with BagWriter(tmp_path / "mixed") as w:
         w.add_topic("/lab/trial", "lab_msgs/msg/Trial", msgdef="int32 a\n")

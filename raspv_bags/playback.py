@@ -21,8 +21,8 @@ from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
-from raspv_camera.bag_reader import BagError, BagReader, TopicInfo
-from raspv_camera.bag_writer import QosSpec
+from raspv_bags.reader import BagError, BagReader, TopicInfo
+from raspv_bags.writer import QosSpec
 from raspv_common import topics as T
 
 # Topics of an RGB-D source: published like the simulator does (raspv_common.qos.SENSOR_QOS)

@@ -30,8 +30,8 @@ from typing import Any, Callable, Iterator
 import cv2
 import numpy as np
 
-from raspv_camera.bag_from_frames import FramesError, intrinsics_for
-from raspv_camera.bag_reader import BagError, BagMessage, BagReader
+from raspv_bags.from_frames import FramesError, intrinsics_for
+from raspv_bags.reader import BagError, BagMessage, BagReader
 from raspv_common import topics as T
 from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, pose_to_matrix, rgb_from_image
 from raspv_common.intrinsics import CameraIntrinsics
@@ -496,7 +496,7 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
                progress: Callable[[float, float], None] | None = None) -> RenderReport:
     """Render ``bag`` into ``video`` (mp4) and/or PNG frames in ``png_dir``. ``progress(done_s,
     total_s)`` is called with the bag time rendered. Raises :class:`RenderError` (or
-    :class:`~raspv_camera.bag_reader.BagError`) when the render cannot be done at all."""
+    :class:`~raspv_bags.reader.BagError`) when the render cannot be done at all."""
     s = settings or RenderSettings()
     if video is None and png_dir is None:
         raise RenderError("give an output: a video file and/or a PNG folder")

@@ -41,7 +41,7 @@ def make_test_bag(path: Path, seconds: float, rate: float, storage: str = "mcap"
     info), ``rate`` frames per second for ``seconds``. Returns the number of frames."""
     import cv2
 
-    from raspv_camera.bag_from_frames import CAMERA_PRESETS, RgbdBagWriter
+    from raspv_bags.from_frames import CAMERA_PRESETS, RgbdBagWriter
     from raspv_common.intrinsics import CameraIntrinsics
     from raspv_common.rgbd_files import read_color, read_depth_scaled
 
@@ -62,14 +62,14 @@ def make_test_bag(path: Path, seconds: float, rate: float, storage: str = "mcap"
 
 
 def _render(bag: Path, out: Path, **kw) -> tuple[float, int, float]:
-    from raspv_camera.bag_render import RenderSettings, render_bag
+    from raspv_bags.render import RenderSettings, render_bag
 
     rep = render_bag(bag, out, settings=RenderSettings(**kw))
     return rep.speed, rep.frames, rep.wall_s
 
 
 def render_part(bag: Path, workdir: Path, device: str, extra: bool) -> dict:
-    from raspv_camera.bag_reader import BagReader
+    from raspv_bags.reader import BagReader
     from raspv_spv.config import spv_config
     from raspv_spv.simulator import PhospheneSimulator
 
@@ -104,7 +104,7 @@ def replay_part(bag: Path) -> dict:
     from raspv_common.qos import SENSOR_QOS
     from sensor_msgs.msg import Image
 
-    from raspv_camera.bag_reader import BagReader
+    from raspv_bags.reader import BagReader
 
     domain = claim_private_domain()
     with BagReader(bag) as r:

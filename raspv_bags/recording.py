@@ -2,7 +2,7 @@
 
 The ROS side (`raspv bag record`, :mod:`raspv_bringup.bag_cli`) discovers topics, subscribes
 with raw (serialised) subscriptions and hands every message here; :class:`Recording` writes
-the bytes unchanged through :class:`~raspv_camera.bag_writer.BagWriter` (which flushes every
+the bytes unchanged through :class:`~raspv_bags.writer.BagWriter` (which flushes every
 ``flush_interval_s``, so a killed recorder loses at most that much) and keeps the per-topic
 counts shown on the status line.
 """
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
 
-from raspv_camera.bag_writer import BagWriter, QosSpec
+from raspv_bags.writer import BagWriter, QosSpec
 
 # Infrastructure topics left out of "record everything" (name them to record them).
 DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")

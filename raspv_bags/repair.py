@@ -1,6 +1,6 @@
 """Turning an unfinished or damaged bag into a complete one (no ROS imports).
 
-:func:`repair_bag` reads whatever :class:`~raspv_camera.bag_reader.BagReader` can read from a
+:func:`repair_bag` reads whatever :class:`~raspv_bags.reader.BagReader` can read from a
 bag (e.g. one whose recorder was SIGKILLed) and writes it, bytes unchanged, into a new complete
 bag that every ROS 2 tool opens. The original is left as it is.
 """
@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from raspv_camera.bag_reader import BagReader
-from raspv_camera.bag_writer import BagWriter, BagWriteError
+from raspv_bags.reader import BagReader
+from raspv_bags.writer import BagWriter, BagWriteError
 
 
 @dataclass
@@ -29,8 +29,8 @@ def repair_bag(source: str | Path, output: str | Path, storage: str | None = Non
                progress: Callable[[int, int], None] | None = None) -> RepairReport:
     """Copy every readable message of ``source`` into the new bag ``output`` (``storage``:
     ``mcap``/``sqlite3``, default: the source's). ``progress(done, total)`` is called as it goes.
-    Raises :class:`~raspv_camera.bag_reader.BagError` when nothing is readable and
-    :class:`~raspv_camera.bag_writer.BagWriteError` when the output cannot be written."""
+    Raises :class:`~raspv_bags.reader.BagError` when nothing is readable and
+    :class:`~raspv_bags.writer.BagWriteError` when the output cannot be written."""
     with BagReader(source) as reader:
         total = reader.message_count
         writer = BagWriter(output, storage or (reader.storage if reader.storage in ("mcap", "sqlite3") else "mcap"),

@@ -34,8 +34,8 @@ import cv2
 import numpy as np
 import yaml
 
-from raspv_camera.bag_types import typestore
-from raspv_camera.bag_writer import BagWriter, QosSpec
+from raspv_bags.message_types import typestore
+from raspv_bags.writer import BagWriter, QosSpec
 from raspv_common import topics as T
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.rgbd_files import RGBDFormatError, depth_from_scaled_uint16, read_color, read_nyu_disparity

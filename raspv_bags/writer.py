@@ -1,7 +1,7 @@
 """Writing ROS 2 bags that survive their writer being killed (no ROS imports).
 
 :class:`BagWriter` wraps rosbags' writer (mcap or sqlite3) and adds :meth:`BagWriter.flush`:
-everything written before a flush is on disk in a form :class:`raspv_camera.bag_reader.BagReader`
+everything written before a flush is on disk in a form :class:`raspv_bags.reader.BagReader`
 can read back even if the process then dies without closing the bag (SIGKILL, power loss of
 the process, OOM killer):
 
@@ -24,7 +24,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 
-from raspv_camera.bag_types import normalise_type, typestore
+from raspv_bags.message_types import normalise_type, typestore
 
 STORAGES = ("mcap", "sqlite3")
 

@@ -6,7 +6,7 @@ time order. It uses what can be read and says what it could not (:attr:`BagReade
 
 - a complete bag: rosbags' reader;
 - a bag whose recorder was killed (no ``metadata.yaml``, MCAP without footer): MCAP records are
-  streamed up to the first damaged one (:mod:`raspv_camera.bag_mcap_salvage`); an SQLite
+  streamed up to the first damaged one (:mod:`raspv_bags.mcap_salvage`); an SQLite
   database's journal is rolled back and what was committed is read;
 - a bag whose ``metadata.yaml`` or index is broken: its storage files are read directly;
 - a message that stops the reader half-way: the messages before it are kept.
@@ -25,9 +25,9 @@ from rosbags.interfaces import MessageDefinitionFormat
 from rosbags.rosbag2 import Reader
 from rosbags.rosbag2.metadata import parse_qos
 
-from raspv_camera.bag_mcap_salvage import McapDamaged, McapSalvage
-from raspv_camera.bag_types import normalise_type, register_definition, typestore
-from raspv_camera.bag_writer import QosSpec
+from raspv_bags.mcap_salvage import McapDamaged, McapSalvage
+from raspv_bags.message_types import normalise_type, register_definition, typestore
+from raspv_bags.writer import QosSpec
 
 STORAGE_SUFFIXES = {".mcap": "mcap", ".db3": "sqlite3"}
 
