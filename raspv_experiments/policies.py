@@ -64,7 +64,6 @@ class PolicyConfig:
     lookahead: float = 1.0           # m, follow_path's pursuit distance
     bright_ratio: float = 0.85       # follow_path: trail phosphenes are ≥ this × the frame's brightest
     min_brightness: float = 0.15     # nothing dimmer counts as seen
-    near_distance: float = 1.6       # m, wander_avoid: floor closer than this is "near"
     noise: float = 0.05              # rad/s std. dev. of motor noise
     seed: int = 1
 

@@ -27,7 +27,7 @@ from raspv_sim.avatar import head_quaternion
 def policy_config(p: dict, seed: int | None = None) -> PolicyConfig:
     return PolicyConfig(max_linear=p["max_linear"], max_angular=p["max_angular"], head_pitch_deg=p["head_pitch_deg"],
                         eye_height=p["eye_height"], lookahead=p["lookahead"], bright_ratio=p["bright_ratio"],
-                        near_distance=p["near_distance"], noise=p["noise"], seed=p["seed"] if seed is None else seed)
+                        noise=p["noise"], seed=p["seed"] if seed is None else seed)
 
 
 class SubjectNode(RaspvNode):

@@ -15,7 +15,6 @@ PARAMS = [
     Param("lookahead", 1.0, "follow_path: distance ahead on the trail it steers to", minimum=0.3, maximum=8.0, unit="m"),
     Param("bright_ratio", 0.85, "follow_path: the trail is what is at least this fraction of the brightest phosphene",
           minimum=0.3, maximum=1.0),
-    Param("near_distance", 1.6, "wander_avoid: floor closer than this counts as near", minimum=0.3, maximum=5.0, unit="m"),
     Param("noise", 0.05, "motor noise added to the turning speed (std. dev.)", minimum=0.0, maximum=2.0, unit="rad/s"),
     Param("auto_start", True, "press 'start' as soon as instructions are shown"),
 ]
