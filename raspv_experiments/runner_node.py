@@ -50,7 +50,7 @@ class GraphClient:
         n.create_subscription(Clock, topics.CLOCK, self._on_clock, COMMAND_QOS)
         n.create_subscription(Odometry, topics.ODOM, self._on_odom, SENSOR_QOS)
         n.create_subscription(CollisionEvent, topics.SIM_COLLISIONS, self._on_collision, EVENT_QOS)
-        n.create_subscription(String, topics.EXPERIMENT_RESPONSE, self._on_response, COMMAND_QOS)
+        n.create_subscription(String, topics.EXPERIMENT_RESPONSE, self._on_response, EVENT_QOS)
         self.pub_instructions = n.create_publisher(String, topics.EXPERIMENT_INSTRUCTIONS, LATCHED_QOS)
         self.start_client = n.create_client(StartTrial, topics.SIM_START_TRIAL)
         self.end_client = n.create_client(EndTrial, topics.SIM_END_TRIAL)

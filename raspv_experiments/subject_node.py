@@ -18,7 +18,7 @@ from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.node import RaspvNode, run_node
-from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
 from raspv_experiments.subject_params import PARAMS
 from raspv_sim.avatar import head_quaternion
@@ -41,7 +41,7 @@ class SubjectNode(RaspvNode):
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_step = self.create_publisher(TwistStamped, topics.SIM_LOCKSTEP, COMMAND_QOS)
-        self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, COMMAND_QOS)
+        self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
         self.create_subscription(PhospheneMap, topics.SPV_MAP, self.on_map, LATCHED_QOS)
         self.create_subscription(PhospheneFrame, topics.SPV_FRAME, self.on_frame, SENSOR_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)

@@ -26,7 +26,7 @@ from raspv_common import topics
 from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
-from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_hmd.bridge_params import PARAMS
 from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig, ServerError
@@ -72,7 +72,7 @@ class BridgeNode(RaspvNode):
             raise ConfigurationError(str(exc)) from None
         self.frames = 0
         self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
-        self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, COMMAND_QOS)
+        self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
         for page, tcp in self.server.endpoints():
             native = f"; native clients: {tcp}" if tcp else ""
