@@ -23,7 +23,9 @@ from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_t
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
 from raspv_common.qos import COMMAND_QOS, SENSOR_QOS
+from raspv_hmd.audio_cues import CueSettings
 from raspv_hmd.bridge_params import PARAMS
+from raspv_hmd.cue_relay import CueRelay
 from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig, ServerError
 from raspv_spv.device import DeviceError, load_device
@@ -67,6 +69,8 @@ class BridgeNode(RaspvNode):
             raise ConfigurationError(str(exc)) from None
         self.frames = 0
         self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
+        if p["audio_cues"]:      # navigation guidance and stairs → spatial audio in the clients
+            self.cues = CueRelay(self, self.server, CueSettings(enabled=tuple(p["audio_cues"])))
         for page, tcp in self.server.endpoints():
             native = f"; native clients: {tcp}" if tcp else ""
             print(f"headset client: open {page} in a browser{native}", flush=True)

@@ -46,6 +46,7 @@ WS_PATH = "/ws"
 STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
                 "/index.html": ("index.html", "text/html; charset=utf-8"),
                 "/client.js": ("client.js", "text/javascript; charset=utf-8"),
+                "/audio_cues.js": ("audio_cues.js", "text/javascript; charset=utf-8"),
                 "/style.css": ("style.css", "text/css; charset=utf-8")}
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "
@@ -454,6 +455,21 @@ class HeadsetServer:
             for s in list(self._sessions.values()):
                 if client is None or s.id == client:
                     loop.create_task(self._say(s, msg))
+        try:
+            loop.call_soon_threadsafe(send)
+        except RuntimeError:
+            pass
+
+    def broadcast(self, kind: str, **fields: Any) -> None:
+        """Send a JSON message of type ``kind`` to every client (e.g. the audio ``cues``)."""
+        msg = P.server_message(kind, **fields)
+        loop = self._loop
+        if loop is None:
+            return
+
+        def send() -> None:
+            for s in list(self._sessions.values()):
+                loop.create_task(self._say(s, msg))
         try:
             loop.call_soon_threadsafe(send)
         except RuntimeError:

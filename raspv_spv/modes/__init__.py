@@ -23,6 +23,7 @@ MODES: dict[str, str] = {
 OVERLAYS: dict[str, str] = {
     "path": "raspv_spv.modes.path_overlay:PathOverlay",
     "stairs": "raspv_spv.modes.stairs_overlay:StairsOverlay",
+    "guidance": "raspv_spv.modes.guidance_overlay:GuidanceOverlay",
 }
 
 
