@@ -42,7 +42,7 @@ class ObstacleLayerConfig:
     max_range: float = 4.0             # [m] horizontal range of marking and clearing
     stride: int = 4                    # use every stride-th pixel in u and v
     bearing_resolution_deg: float = 0.5  # width of the bearing bins of the clearing polygon
-    decay_s: float = 2.0               # [s] an obstacle not seen again is forgotten after this
+    decay_s: float = 10.0              # [s] an obstacle not seen again is forgotten after this
     reset_on_jump_s: float = 1.0       # [s] a stamp this far back clears the layer
 
     def __post_init__(self) -> None:

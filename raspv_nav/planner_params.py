@@ -30,8 +30,8 @@ PARAMS = [
           dynamic=False),
     Param("obstacle_range", 4.0, "depth marks and clears the costmap up to this horizontal distance", minimum=0.5,
           maximum=10.0, unit="m", dynamic=False),
-    Param("obstacle_memory", 2.0, "decay of the obstacle layer: a cell not seen again is forgotten after this",
-          minimum=0.0, maximum=60.0, unit="s", dynamic=False),
+    Param("obstacle_memory", 10.0, "decay of the obstacle layer: a cell not seen again is forgotten after this "
+          "(cells seen free are cleared at once)", minimum=0.0, maximum=600.0, unit="s", dynamic=False),
     Param("max_speed", 0.8, "fastest suggested walking speed", minimum=0.1, maximum=3.0, unit="m/s", dynamic=False),
     Param("goal_tolerance", 0.4, "distance at which the goal counts as reached", minimum=0.05, maximum=3.0, unit="m",
           dynamic=False),

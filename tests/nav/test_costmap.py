@@ -119,7 +119,7 @@ def test_costmap_values_follow_the_ros_convention():
 
 def test_live_layer_is_inflated_with_the_static_one():
     grid = empty_grid()
-    cm = Costmap(grid, CostmapConfig())
+    cm = Costmap(grid, CostmapConfig(), ObstacleLayerConfig(decay_s=2.0))
     depth, pose = view([person(0.0, 0.0)])
     cm.obstacle_layer.add_depth(depth, CAM, pose, 5.0)
     state = cm.update()
