@@ -20,6 +20,9 @@ All times are message stamps, so a replayed bag works with bag time.
 from __future__ import annotations
 
 import math
+import statistics
+import time
+from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +81,7 @@ class PlannerNode(RaspvNode):
         self.frame_id = "world"
         self.pending_depth: tuple[float, np.ndarray] | None = None     # waits for a pose at its stamp
         self._goal_reached_logged = False
+        self.timings: dict[str, deque] = {k: deque(maxlen=5000) for k in ("replan", "depth", "control")}
         self.pub_path = self.create_publisher(PathMsg, topics.NAV_PATH, SENSOR_QOS)
         self.pub_hint = self.create_publisher(Twist, topics.NAV_CMD_VEL_HINT, COMMAND_QOS)
         self.pub_guidance = self.create_publisher(NavGuidance, topics.NAV_GUIDANCE, SENSOR_QOS)
@@ -203,11 +207,16 @@ class PlannerNode(RaspvNode):
             self.warn_throttled("depth-pose", f"no camera pose at the depth stamp {stamp:.3f} s on "
                                               f"{topics.CAMERA_POSE}; its obstacles are not used")
             return
+        t0 = time.perf_counter()
         self.assistant.add_depth(depth, self.intrinsics, pose, stamp)
+        self.timings["depth"].append(1e3 * (time.perf_counter() - t0))
 
     # -- outputs -----------------------------------------------------------------------------
     def replan(self) -> None:
+        t0 = time.perf_counter()
         status = self.assistant.replan()
+        if status.plan is not None:
+            self.timings["replan"].append(1e3 * (time.perf_counter() - t0))
         if self.assistant.subject is None:
             self.warn_throttled("pose", f"waiting for {topics.ODOM} or {topics.CAMERA_POSE}")
             return
@@ -225,8 +234,10 @@ class PlannerNode(RaspvNode):
         if self.assistant.subject is None:
             return
         velocity = self.odom_velocity if self._use_odom() else self.velocity_estimator.velocity()
+        t0 = time.perf_counter()
         self.assistant.costmap_state()
         result = self.assistant.velocity_hint(velocity)
+        self.timings["control"].append(1e3 * (time.perf_counter() - t0))
         hint = Twist()
         hint.linear.x, hint.angular.z = result.linear, result.angular
         self.pub_hint.publish(hint)
@@ -245,6 +256,18 @@ class PlannerNode(RaspvNode):
         self.pub_costmap.publish(costmap_to_msg(a.costmap.state.occupancy_values(), a.grid, a.alignment, header))
         self.pub_layer.publish(costmap_to_msg(a.costmap.obstacle_layer.occupancy_values(stamp), a.grid,
                                               a.alignment, header))
+
+    def close(self) -> None:
+        # rclpy's context may already be shut down here: report with print, not the ROS logger
+        parts = []
+        for name, what in (("replan", "replans (A*)"), ("depth", "depth frames into the costmap"),
+                           ("control", "control steps (inflation + DWA)")):
+            v = sorted(getattr(self, "timings", {}).get(name, ()))
+            if v:
+                parts.append(f"{len(v)} {what} median {statistics.median(v):.1f} ms, "
+                             f"p95 {v[min(len(v) - 1, int(0.95 * (len(v) - 1)))]:.1f} ms")
+        if parts:
+            print("planner: " + "; ".join(parts), flush=True)
 
 
 def main(argv=None) -> None:

@@ -4,7 +4,8 @@ When the navigation path is not in view — the path overlay would light no phos
 the path turns away behind the subject or leaves the prosthesis' narrow field — the subject
 needs to know which way to turn. This overlay lights the phosphenes at the edge of the field in
 the direction of the navigation assistant's next waypoint (``extras["nav_guidance"]``, a
-:class:`~raspv_nav.guidance.Guidance` in the world frame W): the waypoint on the floor
+:class:`~raspv_nav.guidance.Guidance` in the world frame W) or, when the path itself is at
+hand (``nav_path``), of the point ``marker_lookahead`` m along it: that point on the floor
 (z = ``path_height``) is brought into the camera frame C with the camera pose and projected
 with the prosthesis' K_P; its direction from the field centre picks a sector of
 ±``marker_width_deg``/2 (polar angle in the phosphene image), and the phosphenes of that sector
@@ -21,6 +22,7 @@ import math
 
 import numpy as np
 
+from raspv_nav.local_planner import lookahead_point
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.modes.base import Overlay
 from raspv_spv.modes.path_overlay import PathOverlay
@@ -36,6 +38,7 @@ class GuidanceOverlay(Overlay):
         "marker_width_deg": 30.0,     # angular width of the marker sector, polar angle in the image [deg]
         "marker_depth": 0.25,         # marker thickness as a fraction of the field radius in its direction
         "path_height": 0.0,           # world z of the floor [m]
+        "marker_lookahead": 3.0,      # with the path at hand, point at the path this far ahead [m]
     }
 
     def __init__(self, settings=None) -> None:
@@ -49,10 +52,15 @@ class GuidanceOverlay(Overlay):
         waypoint = getattr(g, "next_waypoint", None)
         if waypoint is None:
             return None
-        if inputs.extras.get("nav_path") is not None and inputs.depth is not None:
-            if self._path.highlight(inputs, sampling).any():
-                return None                               # the path overlay shows the way
         pose = np.asarray(inputs.camera_pose, dtype=float)
+        path = inputs.extras.get("nav_path")
+        if path is not None and len(path) >= 2:
+            if inputs.depth is not None and self._path.highlight(inputs, sampling).any():
+                return None                               # the path overlay shows the way
+            # a point farther along the path than the DWA's waypoint: one right at the feet is
+            # always below the field and would only say "down"
+            waypoint = lookahead_point(np.asarray(path, dtype=float)[:, :2], pose[:2, 3],
+                                       self.settings["marker_lookahead"])
         p = np.array([waypoint[0], waypoint[1], self.settings["path_height"]], dtype=float)
         pc = (p - pose[:3, 3]) @ pose[:3, :3]             # world → camera: Rᵀ (p − t)
         K = sampling.K_P
