@@ -53,8 +53,10 @@ def listener_from_world(world_from_listener: np.ndarray, frame: str) -> np.ndarr
     return out
 
 
-def _point(T: np.ndarray, p) -> list[float]:
-    return [round(float(v), 3) for v in (T[:3, :3] @ np.asarray(p, dtype=float) + T[:3, 3])]
+def _point(T: np.ndarray, p) -> list[float] | None:
+    """``p`` in the listener frame, rounded to mm; None when not finite (JSON has no NaN)."""
+    q = T[:3, :3] @ np.asarray(p, dtype=float) + T[:3, 3]
+    return [round(float(v), 3) for v in q] if np.all(np.isfinite(q)) else None
 
 
 def cues_message(guidance: Any | None, world_from_listener: np.ndarray | None, frame: str,
@@ -67,7 +69,7 @@ def cues_message(guidance: Any | None, world_from_listener: np.ndarray | None, f
     :class:`~raspv_perception.stair_model.Staircase` (C) or None; ``listener_from_camera``:
     4×4 listener ← C at the stairs' stamp (None: identity up to the axis change of ``head``)."""
     s = settings or CueSettings()
-    if world_from_listener is None:
+    if world_from_listener is None or not np.all(np.isfinite(world_from_listener)):
         return None
     L = listener_from_world(world_from_listener, frame)
     msg: dict[str, Any] = {"frame": frame, "waypoint": None, "obstacle": None, "stairs": None,
@@ -78,18 +80,19 @@ def cues_message(guidance: Any | None, world_from_listener: np.ndarray | None, f
         msg["has_path"], msg["goal_reached"], msg["feasible"] = (bool(guidance.has_path), bool(guidance.goal_reached),
                                                                  bool(guidance.feasible))
         if "waypoint" in s.enabled and guidance.next_waypoint is not None and not guidance.goal_reached:
-            wp = guidance.next_waypoint
-            msg["waypoint"] = {"position": _point(L, [wp[0], wp[1], s.floor_height])}
-        if "obstacle" in s.enabled and guidance.nearest_obstacle is not None:
-            ob = guidance.nearest_obstacle
-            msg["obstacle"] = {"position": _point(L, [ob[0], ob[1], s.floor_height]),
-                               "distance": round(float(guidance.nearest_obstacle_distance), 3)}
+            wp = _point(L, [guidance.next_waypoint[0], guidance.next_waypoint[1], s.floor_height])
+            msg["waypoint"] = None if wp is None else {"position": wp}
+        distance = float(guidance.nearest_obstacle_distance)
+        if "obstacle" in s.enabled and guidance.nearest_obstacle is not None and math.isfinite(distance):
+            ob = _point(L, [guidance.nearest_obstacle[0], guidance.nearest_obstacle[1], s.floor_height])
+            msg["obstacle"] = None if ob is None else {"position": ob, "distance": round(distance, 3)}
     if "stairs" in s.enabled and stairs is not None and float(stairs.distance) <= s.stairs_range:
         if listener_from_camera is None:
             listener_from_camera = np.eye(4)
             if frame == "head":
                 listener_from_camera[:3, :3] = HEAD_FROM_CAMERA
-        edge = np.asarray(stairs.camera_from_stair, dtype=float)[:3, 3]
-        msg["stairs"] = {"position": _point(listener_from_camera, edge), "distance": round(float(stairs.distance), 3),
-                         "direction": "up" if int(stairs.direction) == 0 else "down"}
+        edge = _point(listener_from_camera, np.asarray(stairs.camera_from_stair, dtype=float)[:3, 3])
+        if edge is not None:
+            msg["stairs"] = {"position": edge, "distance": round(float(stairs.distance), 3),
+                             "direction": "up" if int(stairs.direction) == 0 else "down"}
     return msg

@@ -18,7 +18,6 @@ follows ``/nav/cmd_vel_hint``, and reports the phosphene display's rate and drop
 from __future__ import annotations
 
 import argparse
-import math
 import re
 import statistics
 import tempfile

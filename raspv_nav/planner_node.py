@@ -163,6 +163,8 @@ class PlannerNode(RaspvNode):
     def on_odom(self, msg: Odometry) -> None:
         try:
             T = pose_to_matrix(msg.pose.pose)
+            if not np.all(np.isfinite(T)):
+                raise ValueError("the pose is not finite")
         except ValueError as exc:
             self.warn_throttled("odom", f"ignoring {topics.ODOM}: {exc}")
             return

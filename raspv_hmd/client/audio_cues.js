@@ -3,7 +3,8 @@
 // The bridge sends `cues` messages (docs/hmd.md): positions of the next waypoint, the nearest
 // obstacle ahead and a staircase, relative to the listener (x forward, y left, z up, metres).
 // Each cue is an oscillator → envelope gain → HRTF PannerNode → switch gain → master:
-//   waypoint  a short 880 Hz sine blip every 0.7 s: walk towards it;
+//   waypoint  a short 880 Hz sine blip every 0.7 s: walk towards it (a double 220 Hz beep when the
+//             DWA finds no admissible velocity: stop);
 //   obstacle  330 Hz triangle beeps that quicken as the obstacle comes closer (parking sensor);
 //   stairs    a three-note square arpeggio, rising for stairs up, falling for stairs down.
 // In the "base" frame the listener turns with the head orientation this page sends (drag, phone
@@ -56,7 +57,8 @@
     sw.gain.value = A.on[kind] ? 1 : 0;
     osc.connect(envelope).connect(panner).connect(sw).connect(master);
     osc.start();
-    return { kind, osc, envelope, panner, sw, active: false, nextAt: 0, period: 0, distance: null, direction: null };
+    return { kind, osc, envelope, panner, sw, active: false, nextAt: 0, period: 0, distance: null, direction: null,
+             stop: false };
   }
 
   function start() {
@@ -112,7 +114,7 @@
       c.panner.positionY.setValueAtTime(y, t);
       c.panner.positionZ.setValueAtTime(z, t);
       c.distance = cue.distance !== undefined ? cue.distance : Math.hypot(...cue.position);
-      if (kind === "waypoint") c.period = 0.7;
+      if (kind === "waypoint") { c.stop = m.has_path && m.feasible === false; c.period = c.stop ? 0.5 : 0.7; }
       if (kind === "obstacle") c.period = 0.1 + 0.7 * Math.min(1, c.distance / (m.proximity_range || 1.5));
       if (kind === "stairs") { c.period = 1.5; c.direction = cue.direction; }
     }
@@ -143,8 +145,15 @@
       });
       return;
     }
-    const len = c.kind === "waypoint" ? 0.06 : 0.05;
-    g.setValueAtTime(0, at); g.linearRampToValueAtTime(0.8, at + 0.005); g.linearRampToValueAtTime(0, at + len);
+    if (c.kind === "waypoint") {               // walk towards it; or, when DWA finds no safe velocity, stop
+      const notes = c.stop ? [[220, 0], [220, 0.12]] : [[880, 0]];
+      for (const [f, dt] of notes) {
+        c.osc.frequency.setValueAtTime(f, at + dt);
+        g.setValueAtTime(0, at + dt); g.linearRampToValueAtTime(0.8, at + dt + 0.005); g.linearRampToValueAtTime(0, at + dt + 0.06);
+      }
+      return;
+    }
+    g.setValueAtTime(0, at); g.linearRampToValueAtTime(0.8, at + 0.005); g.linearRampToValueAtTime(0, at + 0.05);
   }
 
   function schedule() {
@@ -176,7 +185,7 @@
       const c = cues[kind];
       out.cues[kind] = { on: A.on[kind], switchGain: c.sw.gain.value, envelope: c.envelope.gain.value,
                          active: c.active, type: c.osc.type,
-                         frequency: c.osc.frequency.value, period: c.period, direction: c.direction,
+                         frequency: c.osc.frequency.value, period: c.period, direction: c.direction, stop: c.stop,
                          position: [c.panner.positionX.value, c.panner.positionY.value, c.panner.positionZ.value],
                          panningModel: c.panner.panningModel };
     }

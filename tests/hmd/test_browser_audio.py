@@ -139,6 +139,11 @@ def test_each_cue_and_all_audio_switch_off_and_on(page, cue_server):
     assert page.get_attribute("#audio", "aria-pressed") == "false"
     page.click("#audio")                                      # and on again with the button
     wait_graph(page, "g.enabled && g.master > 0.5")
+    # no admissible velocity (DWA says stop): the beacon turns into a low double beep
+    page.keyboard.press("b")
+    current["cues"] = {**CUES, "feasible": False}
+    wait_graph(page, "g.cues.waypoint.stop && g.cues.waypoint.period === 0.5")
+    wait_graph(page, "g.cues.waypoint.frequency === 220 && g.cues.waypoint.envelope > 0.05")
     # a staircase going down sounds differently (falling notes); a cue that disappears falls silent
     current["cues"] = {**CUES, "stairs": {**CUES["stairs"], "direction": "down"}, "waypoint": None}
     wait_graph(page, "g.cues.stairs.direction === 'down' && !g.cues.waypoint.active")

@@ -124,3 +124,15 @@ def test_audio_cues_are_relative_to_the_listener():
     only_stairs = cues_message(g, base, "base", settings=CueSettings(enabled=("stairs",)))
     assert only_stairs["waypoint"] is None and only_stairs["obstacle"] is None
     assert cues_message(g, None, "base") is None
+
+
+def test_non_finite_positions_never_reach_the_client_as_nan():
+    g = guidance([float("nan"), 1.0])
+    g.nearest_obstacle, g.nearest_obstacle_distance = np.array([1.0, 3.0]), float("nan")
+    msg = cues_message(g, planar_transform(1.0, 2.0, 0.0), "base")
+    assert msg["waypoint"] is None and msg["obstacle"] is None
+    import json
+    json.loads(json.dumps(msg, allow_nan=False))               # strict JSON
+    bad = planar_transform(1.0, 2.0, 0.0)
+    bad[0, 3] = float("inf")
+    assert cues_message(g, bad, "base") is None

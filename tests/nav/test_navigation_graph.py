@@ -16,7 +16,7 @@ from nav_msgs.msg import Path as PathMsg
 from raspv_msgs.msg import CollisionEvent, NavGuidance
 
 from raspv_common import topics
-from raspv_common.qos import COMMAND_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS
 from raspv_nav.global_planner import path_length
 from raspv_nav.nav_msg import path_from_msg
 
