@@ -54,7 +54,7 @@ class GlobalPlanner:
     def cell_of(self, xy, what: str) -> tuple[int, int]:
         rc = self.grid.world_to_cell(np.asarray(xy, dtype=float)[:2])[0]
         if not self.grid.inside(rc[None])[0]:
-            raise NoPathError(f"{what} {tuple(np.round(np.asarray(xy, float)[:2], 2))} is outside the map")
+            raise NoPathError(f"{what} {_xy(xy)} is outside the map")
         return int(rc[0]), int(rc[1])
 
     def nearest_traversable(self, rc: tuple[int, int], cost: np.ndarray) -> tuple[int, int] | None:
@@ -84,17 +84,17 @@ class GlobalPlanner:
         s_rc, g_rc = self.cell_of(start_xy, "start"), self.cell_of(goal_xy, "goal")
         g_static = self.nearest_traversable(g_rc, self._static_cost)
         if g_static is None:
-            raise NoPathError(f"goal {tuple(np.round(goal_xy, 2))} is in an obstacle of the building map "
+            raise NoPathError(f"goal {_xy(goal_xy)} is in an obstacle of the building map "
                               f"(no free cell within {self.max_relocation} m)")
         cols = self.grid.shape[1]
         self.search.set_goal(g_static[0] * cols + g_static[1])
         s_free = self.nearest_traversable(s_rc, cost)
         if s_free is None:
-            raise NoPathError(f"start {tuple(np.round(start_xy, 2))} is enclosed by obstacles "
+            raise NoPathError(f"start {_xy(start_xy)} is enclosed by obstacles "
                               f"(no free cell within {self.max_relocation} m)")
         g_free = self.nearest_traversable(g_rc, cost)
         if g_free is None:
-            raise NoPathError(f"goal {tuple(np.round(goal_xy, 2))} is blocked by obstacles "
+            raise NoPathError(f"goal {_xy(goal_xy)} is blocked by obstacles "
                               f"(no free cell within {self.max_relocation} m)")
         s, g = s_free[0] * cols + s_free[1], g_free[0] * cols + g_free[1]
         h = self.search.h
@@ -147,6 +147,12 @@ class GlobalPlanner:
             keep.append(j)
             i = j
         return keep
+
+
+def _xy(xy) -> str:
+    """A position for messages: "(1.25, 3.00)"."""
+    x, y = (float(v) for v in np.asarray(xy, dtype=float)[:2])
+    return f"({x:.2f}, {y:.2f})"
 
 
 def path_length(path: np.ndarray) -> float:

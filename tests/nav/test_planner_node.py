@@ -71,7 +71,7 @@ def test_without_a_path_an_empty_path_replaces_the_old_one(graph, probe, tmp_pat
     [(_, ok, _)] = probe.set_params("planner", {"goal": [30.0, 1.5]})     # off the map
     assert ok
     probe.wait_for_message(topics.NAV_PATH, Path, timeout=30, predicate=lambda m: len(m.poses) == 0)
-    g.wait_for_output(r"no path to the goal: goal \(30\.0, 1\.5\) is outside the map")
+    g.wait_for_output(r"no path to the goal: goal \(30\.00, 1\.50\) is outside the map")
 
 
 def test_planner_without_map_fails_with_one_line(graph):
