@@ -73,13 +73,20 @@ class CostmapState:
         return out
 
 
-def inflate_obstacles(obstacles: np.ndarray, resolution: float, config: CostmapConfig,
-                      unknown: np.ndarray | None = None) -> CostmapState:
-    """Inflated costs around ``obstacles`` (bool (rows, cols)) on a grid of ``resolution`` m."""
-    c = config
-    # distance from each cell centre to the nearest obstacle cell centre, in metres
+def distance_to(obstacles: np.ndarray, resolution: float) -> np.ndarray:
+    """Distance [m] from each cell centre to the nearest ``obstacles`` cell centre (OpenCV's
+    exact Euclidean distance transform)."""
     dist = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    clearance = dist.astype(np.float64) * resolution
+    return dist.astype(np.float64) * resolution
+
+
+def inflate_obstacles(obstacles: np.ndarray, resolution: float, config: CostmapConfig,
+                      unknown: np.ndarray | None = None, clearance: np.ndarray | None = None) -> CostmapState:
+    """Inflated costs around ``obstacles`` (bool (rows, cols)) on a grid of ``resolution`` m
+    (``clearance``: their distance field when already known)."""
+    c = config
+    if clearance is None:
+        clearance = distance_to(obstacles, resolution)
     traversable = clearance > c.robot_radius
     span = c.inflation_radius - c.robot_radius
     frac = np.clip((c.inflation_radius - clearance) / span, 0.0, 1.0)
@@ -100,14 +107,36 @@ class Costmap:
         self.static_obstacles = (grid.cells == OCCUPIED) | (self.unknown if self.config.unknown_is_obstacle else False)
         self.static = inflate_obstacles(self.static_obstacles, grid.resolution, self.config, self.unknown)
         self.obstacle_layer = ObstacleLayer(grid, obstacle_config)
+        # camera hits on or next to a known wall are that wall: they add nothing to the map
+        k = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        self._near_static = cv2.dilate(self.static_obstacles.astype(np.uint8), k).astype(bool)
         self.state = self.static
+        self._live = np.zeros(grid.shape, bool)
+
+    def live_obstacles(self, now: float | None = None) -> np.ndarray:
+        """Obstacle-layer cells that are new to the building map (not on or next to its walls)."""
+        return self.obstacle_layer.occupied(now) & ~self._near_static
 
     def update(self, now: float | None = None) -> CostmapState:
-        """Combine the layers as of data time ``now`` [s] (default: the newest observation)."""
-        live = self.obstacle_layer.occupied(now)
+        """Combine the layers as of data time ``now`` [s] (default: the newest observation).
+
+        Only a window around the live cells (their bounding box grown by ``inflation_radius``) is
+        re-inflated: the distance field is exact up to ``inflation_radius`` from live obstacles
+        and, beyond it, is the static one. Unchanged live cells reuse the last state."""
+        live = self.live_obstacles(now)
+        if np.array_equal(live, self._live):
+            return self.state
+        self._live = live
         if not live.any():
             self.state = self.static
-        else:
-            self.state = inflate_obstacles(self.static_obstacles | live, self.grid.resolution, self.config,
-                                           self.unknown)
+            return self.state
+        rr, cc = np.nonzero(live)
+        m = int(np.ceil(self.config.inflation_radius / self.grid.resolution)) + 1
+        r0, r1 = max(0, rr.min() - m), min(self.grid.shape[0], rr.max() + m + 1)
+        c0, c1 = max(0, cc.min() - m), min(self.grid.shape[1], cc.max() + m + 1)
+        clearance = self.static.clearance.copy()
+        window = (slice(r0, r1), slice(c0, c1))
+        clearance[window] = np.minimum(clearance[window], distance_to(live[window], self.grid.resolution))
+        self.state = inflate_obstacles(self.static_obstacles | live, self.grid.resolution, self.config,
+                                       self.unknown, clearance)
         return self.state

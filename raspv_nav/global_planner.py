@@ -102,8 +102,9 @@ class GlobalPlanner:
             raise NoPathError("no path between start and goal on the building map")
         changed = dilate(cost != self._static_cost, 1)      # the cells and their neighbours
         chain, expanded = None, 0
-        if g == self.search.goal and not changed.ravel()[self.search.static_chain(s)].any():
-            chain = self.search.static_chain(s)
+        static_chain = self.search.static_chain(s) if g == self.search.goal else []
+        if static_chain and not changed.ravel()[static_chain].any():
+            chain = static_chain
         if chain is None:
             result = self.search.search(cost, s, g, np.flatnonzero(changed))
             if result.chain is None:
