@@ -14,6 +14,7 @@ BENCHES: dict[str, str] = {
     "bag": "raspv_bags.bench",
     "hmd": "raspv_hmd.bench",
     "seg": "raspv_perception.segmentation_bench",
+    "nav": "raspv_nav.bench",
 }
 
 

@@ -28,6 +28,11 @@ SEGMENTATION_CLASSES = "/segmentation/classes"  # raspv_msgs/ClassNames, latched
 
 # Navigation.
 NAV_PATH = "/nav/path"                      # nav_msgs/Path, world frame
+NAV_CMD_VEL_HINT = "/nav/cmd_vel_hint"      # geometry_msgs/Twist, DWA suggestion (base frame)
+NAV_GUIDANCE = "/nav/guidance"              # raspv_msgs/NavGuidance, world frame
+NAV_GLOBAL_COSTMAP = "/nav/global_costmap"  # nav_msgs/OccupancyGrid, inflated static layer, latched
+NAV_COSTMAP = "/nav/costmap"                # nav_msgs/OccupancyGrid, inflated static + obstacle layers
+NAV_OBSTACLE_LAYER = "/nav/obstacle_layer"  # nav_msgs/OccupancyGrid, live obstacles from depth
 
 # Phosphene output.
 SPV_IMAGE = "/spv/image"                    # sensor_msgs/Image mono8 (or rgb8 green channel)

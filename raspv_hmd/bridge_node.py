@@ -27,7 +27,9 @@ from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_t
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_hmd.audio_cues import CueSettings
 from raspv_hmd.bridge_params import PARAMS
+from raspv_hmd.cue_relay import CueRelay
 from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig, ServerError
 from raspv_spv.device import DeviceError, load_device
@@ -74,6 +76,8 @@ class BridgeNode(RaspvNode):
         self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
         self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
+        if p["audio_cues"]:      # navigation guidance and stairs → spatial audio in the clients
+            self.cues = CueRelay(self, self.server, CueSettings(enabled=tuple(p["audio_cues"])))
         for page, tcp in self.server.endpoints():
             native = f"; native clients: {tcp}" if tcp else ""
             print(f"headset client: open {page} in a browser{native}", flush=True)

@@ -23,4 +23,7 @@ PARAMS = [
           dynamic=False),
     Param("tls_cert", "", "PEM certificate: serve https/wss (WebXR needs it off localhost)", dynamic=False),
     Param("tls_key", "", "PEM private key of tls_cert", dynamic=False),
+    Param("audio_cues", ["waypoint", "obstacle", "stairs"], "spatial audio cues sent to the clients (from "
+          "/nav/guidance and /stairs; empty: none); each client switches them on with 'm'",
+          choices=("waypoint", "obstacle", "stairs"), dynamic=False),
 ]

@@ -46,6 +46,7 @@ WS_PATH = "/ws"
 STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
                 "/index.html": ("index.html", "text/html; charset=utf-8"),
                 "/client.js": ("client.js", "text/javascript; charset=utf-8"),
+                "/audio_cues.js": ("audio_cues.js", "text/javascript; charset=utf-8"),
                 "/style.css": ("style.css", "text/css; charset=utf-8")}
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "
@@ -447,7 +448,20 @@ class HeadsetServer:
 
     def notify(self, text: str, ok: bool = True, client: int | None = None) -> None:
         """Send a status line to one client (by id) or to all (``None``)."""
-        msg = P.server_message("status", text=text, ok=ok)
+        self._send(P.server_message("status", text=text, ok=ok), client)
+
+    def show_instructions(self, info: dict[str, Any] | None) -> None:
+        """Experiment instructions for every client (and clients that connect later), or None
+        to hide them: ``{"id", "title", "text", "waiting"}`` (waiting: a start is expected)."""
+        self._instructions = P.server_message("instructions", **(info or {"id": "", "text": "", "waiting": False}))
+        self._send(self._instructions)
+
+    def broadcast(self, kind: str, **fields: Any) -> None:
+        """Send a JSON message of type ``kind`` to every client (e.g. the audio ``cues``)."""
+        self._send(P.server_message(kind, **fields))
+
+    def _send(self, msg: Any, client: int | None = None) -> None:
+        """Queue ``msg`` on the server loop for one client (by id) or for all (``None``)."""
         loop = self._loop
         if loop is None:
             return
@@ -456,22 +470,6 @@ class HeadsetServer:
             for s in list(self._sessions.values()):
                 if client is None or s.id == client:
                     loop.create_task(self._say(s, msg))
-        try:
-            loop.call_soon_threadsafe(send)
-        except RuntimeError:
-            pass
-
-    def show_instructions(self, info: dict[str, Any] | None) -> None:
-        """Experiment instructions for every client (and clients that connect later), or None
-        to hide them: ``{"id", "title", "text", "waiting"}`` (waiting: a start is expected)."""
-        self._instructions = P.server_message("instructions", **(info or {"id": "", "text": "", "waiting": False}))
-        loop = self._loop
-        if loop is None:
-            return
-
-        def send() -> None:
-            for s in list(self._sessions.values()):
-                loop.create_task(self._say(s, self._instructions))
         try:
             loop.call_soon_threadsafe(send)
         except RuntimeError:

@@ -34,9 +34,9 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
-from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
-from raspv_msgs.msg import ClassNames, StairDetection
+from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
@@ -142,7 +142,8 @@ class SpvNode(RaspvNode):
                   "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path),
                   "stairs": (StairDetection, topics.STAIRS, self.on_stairs),
                   "segmentation": (Image, topics.SEGMENTATION_LABELS, self.on_segmentation),
-                  "segmentation_classes": (ClassNames, topics.SEGMENTATION_CLASSES, self.on_segmentation_classes)}
+                  "segmentation_classes": (ClassNames, topics.SEGMENTATION_CLASSES, self.on_segmentation_classes),
+                  "nav_guidance": (NavGuidance, topics.NAV_GUIDANCE, self.on_nav_guidance)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
                 qos = LATCHED_QOS if name == "segmentation_classes" else SENSOR_QOS
@@ -187,6 +188,10 @@ class SpvNode(RaspvNode):
             return
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
+
+    def on_nav_guidance(self, msg: NavGuidance) -> None:
+        """The navigation assistant's guidance (world frame) for the guidance overlay."""
+        self.extras["nav_guidance"] = guidance_from_msg(msg)
 
     def on_stairs(self, msg: StairDetection) -> None:
         """The newest staircase detection (camera frame of its depth image) for the stairs overlay."""

@@ -92,6 +92,8 @@
       showMessage(`refused (${m.code}): ${m.reason}`, false);
     } else if (m.type === "instructions") {
       showInstructions(m);
+    } else if (m.type === "cues") {
+      if (window.raspvAudio) window.raspvAudio.update(m);     // audio_cues.js
     } else if (m.type === "bye") {
       if (/token|full/.test(m.reason)) S.closedFor = m.reason;
       showMessage(`server: ${m.reason}`, false);
@@ -399,7 +401,7 @@
       xrGl = makeQuadRenderer(gl);
       xrSession = session; S.xr = true;
       $("vr").textContent = "Exit VR";
-      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
+      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; S.headQuaternion = null; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
       const onXRFrame = (t, frame) => {
         if (!xrSession) return;
         session.requestAnimationFrame(onXRFrame);
@@ -407,6 +409,7 @@
         if (pose) {
           const o = pose.transform.orientation;
           sendHead({ type: "head", q: [o.x, o.y, o.z, o.w], frame: "xr" });      // every XR frame
+          S.headQuaternion = [-o.z, -o.x, o.y, o.w];                           // base convention
         }
         step(t);
         const layer = session.renderState.baseLayer;
