@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from nav_msgs.msg import Path as PathMsg
 
-from raspv_camera.bag_from_frames import RgbdBagWriter
+from raspv_bags.from_frames import RgbdBagWriter
 from raspv_common import topics
 from raspv_nav.motion import planar_pose, planar_transform
 from raspv_nav.nav_msg import path_from_msg
