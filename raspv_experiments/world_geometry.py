@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raspv_nav.global_planner import GlobalPlanner, NoPathError, PlannerConfig, path_length
+from raspv_nav.costmap import CostmapConfig
+from raspv_nav.global_planner import GlobalPlanner, NoPathError, path_length
 from raspv_nav.occupancy import OccupancyGrid
 
 MAP_RESOLUTION = 0.05      # m per cell
@@ -43,7 +44,7 @@ class WorldGeometry:
         if target is None:
             return np.empty((0, 2)), float("nan")
         try:
-            path = self.planner.plan(np.asarray(start_xy, float), target)
+            path = self.planner.plan(np.asarray(start_xy, float), target).path
         except NoPathError:
             return np.empty((0, 2)), float("nan")
         return clip_to_region(path, goal, goal_radius)
@@ -51,7 +52,7 @@ class WorldGeometry:
     def reachable_point(self, goal: np.ndarray, radius: float) -> np.ndarray | None:
         """The goal itself when the body can stand there, else the nearest place within the goal
         region where it can (a goal on an object: "reach the bin"); None when there is none."""
-        t = self.planner.traversable
+        t = self.planner.costmap.static.traversable
         rc = self.grid.world_to_cell(goal[None])[0]
         if self.grid.inside(rc[None])[0] and t[rc[0], rc[1]]:
             return goal
@@ -92,5 +93,5 @@ def world_geometry(world: str) -> WorldGeometry:
     with Simulation(world, SimConfig(width=16, height=12, renderer="tiny")) as sim:
         grid = world_occupancy(sim.world, MAP_RESOLUTION)
         name = sim.spec.name
-    planner = GlobalPlanner(grid, PlannerConfig(robot_radius=BODY_RADIUS, cost_weight=0.0))
+    planner = GlobalPlanner(grid, CostmapConfig(robot_radius=BODY_RADIUS, cost_weight=0.0))
     return WorldGeometry(name, grid, grid.obstacle_distance(unknown_is_obstacle=True), planner)
