@@ -31,6 +31,7 @@ NODES: dict[str, NodeSpec] = {
     "odometry": NodeSpec("raspv_perception.odometry_node", "raspv_perception.odometry_params:PARAMS", "RGB-D odometry publishing /camera/pose for sources without a pose"),
     "bridge": NodeSpec("raspv_hmd.bridge_node", "raspv_hmd.bridge_params:PARAMS", "headset bridge: streams /spv/image to browser/native clients, publishes their head pose and teleop"),
     "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
+    "camera": NodeSpec("raspv_camera.camera_node", "raspv_camera.camera_params:PARAMS", "a real RGB-D camera (RealSense, OpenNI2, DepthAI) or its SDK's recording: colour, registered depth, camera info, IMU"),
     "replay": NodeSpec("raspv_camera.replay_node", "raspv_camera.replay_params:PARAMS", "a recorded bag as the source: original timing, rate, loop, remapping, /clock"),
 }
 

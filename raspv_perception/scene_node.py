@@ -10,6 +10,7 @@ Both outputs carry the depth image's header, so consumers pair them by stamp.
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections import deque
 
 import numpy as np
@@ -26,6 +27,9 @@ from raspv_perception.scene_config import SceneConfig
 from raspv_perception.scene_msg import structure_to_msg
 from raspv_perception.scene_params import CONFIG_FIELDS, PARAMS
 from raspv_perception.scene_perception import ScenePerception
+
+
+IMU_SETTLE_S = 1.0     # longest wait for IMU gravity before the first frame is processed without it [s]
 
 
 def config_from_params(p: dict) -> SceneConfig:
@@ -51,6 +55,7 @@ class SceneNode(RaspvNode):
         self.poses: deque[tuple[float, np.ndarray]] = deque(maxlen=50)
         self.gravity = GravityFilter()
         self.imu_frame: str | None = None
+        self.imu_since: float | None = None      # monotonic time of the first /camera/imu message
         self.frames = 0
         self.pub_structure = self.create_publisher(SceneStructureMsg, topics.SCENE_STRUCTURE, SENSOR_QOS)
         self.pub_labels = self.create_publisher(Image, topics.SCENE_LABELS, SENSOR_QOS)
@@ -78,16 +83,23 @@ class SceneNode(RaspvNode):
     def on_imu(self, msg: Imu) -> None:
         a = msg.linear_acceleration
         self.imu_frame = msg.header.frame_id
+        if self.imu_since is None:
+            self.imu_since = time.monotonic()
         self.gravity.add(stamp_to_seconds(msg.header.stamp), (a.x, a.y, a.z))
 
-    def _gravity_up(self, msg: Image) -> np.ndarray | None:
+    def _gravity_up(self, msg: Image) -> tuple[np.ndarray | None, bool]:
+        """(IMU up direction in C or None, whether to wait for it): while an IMU publishes but
+        its gravity has not settled (at most IMU_SETTLE_S), frames wait, so that the first
+        floor is not chosen by the mounting's limits alone."""
         if not self.params["use_imu"] or self.imu_frame is None:
-            return None
+            return None, False
         if self.imu_frame != msg.header.frame_id:
             self.warn_throttled("imu-frame", f"ignoring {topics.IMU}: frame {self.imu_frame!r} is not the depth "
                                              f"image's {msg.header.frame_id!r} (no transforms here)", period_s=60.0)
-            return None
-        return self.gravity.up(stamp_to_seconds(msg.header.stamp))
+            return None, False
+        up = self.gravity.up(stamp_to_seconds(msg.header.stamp))
+        wait = up is None and self.frames == 0 and time.monotonic() - self.imu_since < IMU_SETTLE_S
+        return up, wait
 
     def _prior(self, stamp: float) -> np.ndarray | None:
         if not self.params["use_pose_prior"] or not self.poses:
@@ -103,8 +115,10 @@ class SceneNode(RaspvNode):
         if depth is None:
             return
         K = self.intrinsics
-        result = self.perception.process(depth, K, self._prior(stamp_to_seconds(msg.header.stamp)),
-                                         self._gravity_up(msg))
+        up, wait = self._gravity_up(msg)
+        if wait:
+            return
+        result = self.perception.process(depth, K, self._prior(stamp_to_seconds(msg.header.stamp)), up)
         self.pub_structure.publish(structure_to_msg(result.structure, msg.header))
         if self.params["publish_labels"]:
             self.pub_labels.publish(array_to_image(result.labels, "mono8", msg.header))
