@@ -90,7 +90,9 @@ def make_recordings(folder: Path, n: int) -> dict[str, Path]:
 
 
 def driver_costs(sdk: str, path: Path) -> tuple[list[float], list[float], str]:
-    """Per frame: (SDK read + registration [ms], messages [ms]) and the frame size."""
+    """Per frame: (the driver's own work on a frame the SDK handed over [ms] — pairing,
+    registration, copies; not the wait for the SDK's file reader —, building the messages [ms])
+    and the frame size."""
     from raspv_camera.camera_driver import CameraSettings
     from raspv_camera.camera_node import depth_for_encoding
     from raspv_camera.drivers import make_driver
@@ -100,20 +102,18 @@ def driver_costs(sdk: str, path: Path) -> tuple[list[float], list[float], str]:
     read, convert, size = [], [], ""
     with make_driver(sdk, CameraSettings(file=str(path))) as driver:
         while True:
-            t0 = time.perf_counter()
             try:
                 frame = driver.read(2.0)
             except EndOfRecording:
                 break
-            t1 = time.perf_counter()
             if frame is None:
                 continue
+            t1 = time.perf_counter()
             array_to_image(frame.color, "rgb8")
             array_to_image(depth_for_encoding(frame, "32FC1"), "32FC1")
             intrinsics_to_camera_info(frame.intrinsics)
             t2 = time.perf_counter()
-            if sdk != "depthai":          # ReplayMessage paces itself: its waiting is not cost
-                read.append(1e3 * (t1 - t0))
+            read.append(driver.frame_ms)
             convert.append(1e3 * (t2 - t1))
             size = f"{frame.color.shape[1]}x{frame.color.shape[0]}"
     return read, convert, size
@@ -152,10 +152,9 @@ def part1(recordings: dict[str, Path]) -> dict:
         except Exception as exc:
             print(f"  {sdk:9s} skipped: {exc}")
             continue
-        total = [a + b for a, b in zip(read, convert)] if read else convert
+        total = [a + b for a, b in zip(read, convert)]
         results[sdk] = total
-        what = "read + align" if sdk == "realsense" else ("replay (paced by the SDK, not timed)" if sdk == "depthai"
-                                                         else "read + pair")
+        what = {"realsense": "pair + align + copy", "depthai": "pair + copy", "openni2": "pair + copy"}[sdk]
         print(f"  {sdk:9s} {size:8s} {len(convert):4d} frames  {what}: {_stats(read)}")
         print(f"  {'':9s} {'':8s} {'':11s} messages: {_stats(convert)}   total {_stats(total)} ms")
     peer = bag_costs(recordings["bag"])
@@ -197,12 +196,17 @@ def _graph_latency(source: dict, seconds: float, workdir: Path) -> tuple[list[fl
             frames.messages.clear(), frames.stamps.clear(), infos.messages.clear(), infos.stamps.clear()
         time.sleep(seconds)
         with frames._cond, infos._cond:
-            arrived = {stamp_to_seconds(m.header.stamp): t for m, t in zip(infos.messages, infos.stamps)}
-            built: dict[float, float] = {}
-            for m, t in zip(frames.messages, frames.stamps):
-                src = stamp_to_seconds(m.source_stamp)
-                built.setdefault(src, t)
-        lat = [1e3 * (built[s] - arrived[s]) for s in sorted(built) if s in arrived]
+            events = sorted([(t, 0, stamp_to_seconds(m.header.stamp)) for m, t in zip(infos.messages, infos.stamps)]
+                            + [(t, 1, stamp_to_seconds(m.source_stamp)) for m, t in zip(frames.messages, frames.stamps)])
+        # in arrival order: a frame's latency is from its (latest) arrival to the first phosphene
+        # frame built from it (a looping bag repeats its stamps: each pass counts anew)
+        waiting: dict[float, float] = {}
+        lat = []
+        for t, kind, stamp in events:
+            if kind == 0:
+                waiting[stamp] = t
+            elif stamp in waiting:
+                lat.append(1e3 * (t - waiting.pop(stamp)))
         return lat, graph.output
     finally:
         probe.close()

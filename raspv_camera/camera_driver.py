@@ -45,6 +45,7 @@ class CameraDriver(ABC):
         self.settings = settings
         self.device: DeviceInfo | None = None
         self.has_imu = False
+        self.frame_ms = 0.0      # the driver's own work on the last frame returned (pairing, registration, copies) [ms]
         self._imu: list[ImuSample] = []
 
     @property

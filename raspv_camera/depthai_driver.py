@@ -244,6 +244,12 @@ class DepthAIDriver(CameraDriver):
         return None
 
     def _frame(self, color, depth) -> RgbdFrame:
+        t0 = time.perf_counter()
+        out = self._convert(color, depth)
+        self.frame_ms = 1e3 * (time.perf_counter() - t0)
+        return out
+
+    def _convert(self, color, depth) -> RgbdFrame:
         T = self.dai.ImgFrame.Type
         if color.getType() == T.RGB888i:
             rgb = np.asarray(color.getData()).reshape(color.getHeight(), color.getWidth(), 3)

@@ -81,6 +81,7 @@ class OpenNI2Driver(CameraDriver):
         self._pending: list[list[tuple[float, int, np.ndarray]]] = [[], []]   # depth, colour: (t, index, data)
         self._counts = [0, 0]
         self._totals = [0, 0]
+        self._work_s = 0.0
 
     # -- open ----------------------------------------------------------------------------------
     def open(self) -> DeviceInfo:
@@ -181,10 +182,13 @@ class OpenNI2Driver(CameraDriver):
                 frame = stream.read_frame()
             except Exception as exc:
                 raise DeviceLost(f"OpenNI2: {exc}") from None
+            t0 = time.perf_counter()
             k = self.streams.index(stream)
             self._counts[k] += 1
             out = self._take(k, frame)
+            self._work_s += time.perf_counter() - t0
             if out is not None:
+                self.frame_ms, self._work_s = 1e3 * self._work_s, 0.0
                 return out
         if self.is_file and all(c >= t for c, t in zip(self._counts, self._totals)):
             raise EndOfRecording(f"{self.settings.file}: end of recording")

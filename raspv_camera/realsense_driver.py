@@ -74,6 +74,7 @@ class RealSenseDriver(CameraDriver):
         self._pairer: FramePairer | None = None
         self._closing = threading.Event()
         self._unplugged = threading.Event()
+        self._work_s = 0.0
 
     # -- open ----------------------------------------------------------------------------------
     def open(self) -> DeviceInfo:
@@ -223,10 +224,15 @@ class RealSenseDriver(CameraDriver):
                 if remaining <= 0:
                     return None
                 continue
+            t0 = time.perf_counter()
             kind = "color" if frame.profile.stream_type() == rs.stream.color else "depth"
             pair = self._pairer.add(kind, frame.get_timestamp() * 1e-3, frame)
-            if pair is not None:
-                return self._registered(pair[0][1], pair[1][1])
+            if pair is None:
+                self._work_s += time.perf_counter() - t0
+                continue
+            out = self._registered(pair[0][1], pair[1][1])
+            self.frame_ms, self._work_s = 1e3 * (self._work_s + time.perf_counter() - t0), 0.0
+            return out
 
     def _registered(self, color, depth) -> RgbdFrame:
         self._pair = {"color": color, "depth": depth}
