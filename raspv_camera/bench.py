@@ -68,6 +68,7 @@ def tum_drift_frames(n: int, rate: float = 30.0):
 def make_recordings(folder: Path, n: int) -> dict[str, Path]:
     """The RealSense (.db3), DepthAI (directory) and OpenNI2 (.oni) recordings and a RASPV bag."""
     from raspv_bags.from_frames import RgbdBagWriter
+    from raspv_camera.rgbd_frame import CameraError
     from raspv_camera.sdk_recordings import (SourceFrame, depth_seen_from, write_depthai_recording,
                                              write_openni2_dummy_recording, write_realsense_recording)
     from raspv_common.intrinsics import CameraIntrinsics
@@ -80,8 +81,12 @@ def make_recordings(folder: Path, n: int) -> dict[str, Path]:
     out = {"realsense": write_realsense_recording(folder / "tum.db3", rs_frames, K, depth_cam,
                                                   depth_to_color_m=BASELINE_M)}
     mm = (SourceFrame(c, np.nan_to_num(d * 1000).astype(np.uint16), t) for c, d, _, t in frames)
-    out["depthai"] = write_depthai_recording(folder / "tum_depthai", mm, K)
-    out["openni2"] = write_openni2_dummy_recording(folder / "dummy.oni", 60)[0]
+    for sdk, write in (("depthai", lambda: write_depthai_recording(folder / "tum_depthai", mm, K)),
+                       ("openni2", lambda: write_openni2_dummy_recording(folder / "dummy.oni", 60)[0])):
+        try:
+            out[sdk] = write()
+        except CameraError as exc:
+            print(f"  no {sdk} recording: {exc}")
     with RgbdBagWriter(folder / "tum_bag") as bag:
         for c, d, KK, t in frames:
             bag.add(t, c, d, KK)
@@ -147,6 +152,8 @@ def part1(recordings: dict[str, Path]) -> dict:
     print(f"part 1: driver cost per frame on one core (cpu {cpu}), SDK recordings of the drifting TUM frame")
     results = {}
     for sdk in ("realsense", "depthai", "openni2"):
+        if sdk not in recordings:
+            continue
         try:
             read, convert, size = driver_costs(sdk, recordings[sdk])
         except Exception as exc:

@@ -38,14 +38,16 @@ def test_dummy_recording_plays_back_exactly(openni2_recording):
     path, recorded = openni2_recording
     with driver(file=str(path)) as d:
         frames = read_all(d)
-    # the file numbers frames from 1 as the recorder got them; the frames read while recording
-    # may include one the recorder had not taken yet: match the sequences, in order
+    # the file numbers each stream's frames from 1 as the recorder got them; the frames read
+    # while recording may include one the recorder had not taken yet, on either stream: match
+    # each stream's sequence, in order
     assert len(recorded) - 1 <= len(frames) <= len(recorded)
-    offset = next(k for k in range(len(recorded)) if np.array_equal(frames[0].depth, recorded[k][1]))
-    assert offset <= 1
-    for f, (_, depth, color) in zip(frames, recorded[offset:]):
-        assert np.array_equal(f.depth, depth) and np.array_equal(f.color, color)
-        assert f.depth_units == 0.001 and f.intrinsics.width == 320
+    for kind, got in (("depth", [f.depth for f in frames]), ("color", [f.color for f in frames])):
+        sent = [d if kind == "depth" else c for _, d, c in recorded]
+        offset = next((k for k in range(2) if np.array_equal(got[0], sent[k])), None)
+        assert offset is not None, kind
+        assert all(np.array_equal(a, b) for a, b in zip(got, sent[offset:])), kind
+    assert all(f.depth_units == 0.001 and f.intrinsics.width == 320 for f in frames)
     # the dummy device reports no field of view: the PrimeSense default focal length, scaled
     assert frames[0].intrinsics.fx == pytest.approx(525.0 * 320 / 640)
     stamps = np.array([f.sensor_time for f in frames])
