@@ -60,11 +60,22 @@ def test_realsense_recording_arrives_unchanged(graph, probe, realsense_recording
 
 def test_openni2_recording_in_millimetres(graph, probe, openni2_recording):
     needs_openni2()
-    path, recorded = openni2_recording
+    from raspv_camera.camera_driver import CameraSettings
+    from raspv_camera.openni2_driver import OpenNI2Driver
+    from raspv_camera.rgbd_frame import EndOfRecording
+
+    path, _ = openni2_recording
+    depths, colors = [], []
+    with OpenNI2Driver(CameraSettings(file=str(path))) as d:    # the file as the driver reads it (test_openni2_driver
+        while True:                                             # checks that against what was recorded)
+            try:
+                f = d.read(2.0)
+            except EndOfRecording:
+                break
+            depths.append(f.depth.tobytes())
+            colors.append(f.color.tobytes())
     graph(camera_graph({"file": str(path), "depth_encoding": "16UC1"}))
     got = collect(probe, 8)
-    depths = [d.tobytes() for _, d, _ in recorded]
-    colors = [c.tobytes() for _, _, c in recorded]
     for msg in got[topics.DEPTH]:
         assert msg.encoding == "16UC1" and image_to_array(msg).tobytes() in depths       # the .oni's millimetres, exact
     for msg in got[topics.COLOR]:

@@ -6,7 +6,6 @@ import threading
 import time
 
 import numpy as np
-import pytest
 
 from raspv_camera.camera_driver import CameraDriver, CameraSettings
 from raspv_camera.camera_runner import CameraRunner, RunnerOptions

@@ -34,19 +34,29 @@ def read_all(d, limit=200):
     raise AssertionError("the recording did not end")
 
 
+def in_order(sent: list, got: list) -> int:
+    """How many of ``sent`` appear, bit-exact, in ``got`` in the same order."""
+    found, j = 0, 0
+    for a in sent:
+        k = next((k for k in range(j, len(got)) if np.array_equal(a, got[k])), None)
+        if k is not None:
+            found, j = found + 1, k + 1
+    return found
+
+
 def test_dummy_recording_plays_back_exactly(openni2_recording):
     path, recorded = openni2_recording
     with driver(file=str(path)) as d:
         frames = read_all(d)
-    # the file numbers each stream's frames from 1 as the recorder got them; the frames read
-    # while recording may include one the recorder had not taken yet, on either stream: match
-    # each stream's sequence, in order
-    assert len(recorded) - 1 <= len(frames) <= len(recorded)
-    for kind, got in (("depth", [f.depth for f in frames]), ("color", [f.color for f in frames])):
+    # The recorder takes every frame the dummy device makes; the frames the recording code read
+    # meanwhile are a subset when it falls behind (a loaded machine), and either stream may
+    # start one frame later in the file. Every frame read while recording comes back bit-exact,
+    # in order (the first and the last may fall outside the recording).
+    assert len(frames) >= len(recorded) - 1
+    for kind in ("depth", "color"):
+        got = [f.depth if kind == "depth" else f.color for f in frames]
         sent = [d if kind == "depth" else c for _, d, c in recorded]
-        offset = next((k for k in range(2) if np.array_equal(got[0], sent[k])), None)
-        assert offset is not None, kind
-        assert all(np.array_equal(a, b) for a, b in zip(got, sent[offset:])), kind
+        assert in_order(sent, got) >= len(sent) - 2, kind
     assert all(f.depth_units == 0.001 and f.intrinsics.width == 320 for f in frames)
     # the dummy device reports no field of view: the PrimeSense default focal length, scaled
     assert frames[0].intrinsics.fx == pytest.approx(525.0 * 320 / 640)
