@@ -206,11 +206,13 @@ def write_openni2_dummy_recording(path: str | Path, frames: int = 30) -> tuple[P
             c = np.frombuffer(fc.get_buffer_as_uint8(), np.uint8).reshape(fc.height, fc.width, 3).copy()
             recorded.append((int(fd.frameIndex), d, c))
     finally:
+        # stop the streams before destroying the recorder: oniRecorderDestroy takes a lock a
+        # streaming thread may hold while it hands a frame to the recorder (a deadlock seen here)
         recorder.stop()
-        recorder.close()
         depth_stream.stop()
         color_stream.stop()
         time.sleep(0.2)          # the dummy driver may crash when closed right after stopping
+        recorder.close()
         dev.close()
     if add_oni_cropping(path) == 0:
         raise CameraError(f"{path}: could not add the cropping records the OpenNI2 player needs")
