@@ -101,7 +101,7 @@ class FloorTracker:
     Tracking: the previous floor (moved by the pose change when poses are given) predicts the
     next; a candidate within ``track_max_angle_deg`` and ``track_max_height_change`` is the
     floor (the largest such). After ``track_lost_frames`` frames without it, the search starts
-    over.
+    over — and once, when IMU gravity arrives for a floor that was found without it.
     """
 
     def __init__(self, config: SceneConfig) -> None:
@@ -112,6 +112,8 @@ class FloorTracker:
         self._plane_c: np.ndarray | None = None       # last floor in the camera frame of its frame
         self._plane_w: np.ndarray | None = None       # ... and in the world frame when posed
         self._missed = 0
+        self._with_gravity = False                    # the tracked floor was first found along IMU gravity
+        self._gravity_now = False
 
     @property
     def tracking(self) -> bool:
@@ -122,6 +124,10 @@ class FloorTracker:
         """The search window for this frame (pose: 4×4 world ← camera, world z up, or None;
         ``gravity_up``: the up direction in C measured by an IMU, or None)."""
         cfg = self.config
+        self._gravity_now = gravity_up is not None
+        if self._plane_c is not None and self._gravity_now and not self._with_gravity:
+            self.reset()              # a floor chosen by the mounting's limits alone: search again along gravity
+            self._gravity_now = True
         if self._plane_c is not None:
             if world_from_camera is not None and self._plane_w is not None:
                 predicted = transform_plane(self._plane_w, _inverse(world_from_camera))
@@ -157,6 +163,8 @@ class FloorTracker:
                 if self._missed >= self.config.track_lost_frames:
                     self.reset()
             return
+        if self._plane_c is None:
+            self._with_gravity = self._gravity_now
         self._missed = 0
         self._plane_c = np.asarray(floor, dtype=np.float64).copy()
         self._plane_w = (transform_plane(self._plane_c, np.asarray(world_from_camera, dtype=np.float64))

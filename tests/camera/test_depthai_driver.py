@@ -1,5 +1,7 @@
 """DepthAI without hardware: host-only pipelines record RAW16 depth and RGB frames with
 RecordMessage and the driver replays them with ReplayMessage; device search with no device."""
+import time
+
 import numpy as np
 import pytest
 
@@ -8,14 +10,18 @@ from raspv_camera.depthai_driver import DepthAIDriver
 from raspv_camera.rgbd_frame import EndOfRecording, NoDevice
 
 
-def read_all(d, limit=200):
+def read_all(d, limit=200, stall_s=60.0):
     out = []
+    last = time.monotonic()
     while len(out) < limit:
         try:
-            f = d.read(3.0)
+            f = d.read(1.0)
         except EndOfRecording:
             return out
-        assert f is not None, "the replay stalled"
+        if f is None:                       # a loaded machine may hold the replay threads back
+            assert time.monotonic() - last < stall_s, "the replay stalled"
+            continue
+        last = time.monotonic()
         out.append(f)
     raise AssertionError("the replay did not end")
 

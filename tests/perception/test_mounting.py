@@ -119,3 +119,17 @@ def test_imu_gravity_without_a_floor_in_view_classifies_with_it(low_views):
     np.testing.assert_allclose(s.up, up / np.linalg.norm(up), atol=1e-9)
     with pytest.raises(ValueError, match="gravity_up"):
         ScenePerception().process(depth, f.intrinsics, gravity_up=[0.0, 0.0, 0.0])
+
+
+def test_a_floor_found_without_gravity_is_searched_again_once_the_imu_arrives():
+    from raspv_perception.floor import FloorTracker
+
+    cfg = SceneConfig().with_mounting("robot")
+    tracker = FloorTracker(cfg)
+    tracker.expectation(None)                                    # no IMU yet: the mounting's limits
+    tracker.update(np.array([0.0, -1.0, 0.0, 1.07]), None)        # e.g. a desk top 1.07 m below
+    up = np.array([0.0, -1.0, 0.0])
+    e = tracker.expectation(None, gravity_up=up)                 # gravity arrives: search again, any height
+    assert e.predicted is None and e.max_height == cfg.max_depth
+    tracker.update(np.array([0.0, -1.0, 0.0, 1.79]), None)
+    assert tracker.expectation(None, gravity_up=up).predicted is not None    # now it is tracked
