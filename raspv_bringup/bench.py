@@ -12,6 +12,7 @@ BENCHES: dict[str, str] = {
     "scene": "raspv_perception.bench",
     "spv": "raspv_spv.bench",
     "bag": "raspv_bags.bench",
+    "camera": "raspv_camera.bench",
     "hmd": "raspv_hmd.bench",
     "seg": "raspv_perception.segmentation_bench",
     "nav": "raspv_nav.bench",

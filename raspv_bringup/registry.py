@@ -34,6 +34,7 @@ NODES: dict[str, NodeSpec] = {
     "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
     "subject": NodeSpec("raspv_experiments.subject_node", "raspv_experiments.subject_params:PARAMS",
                         "scripted subject: sees /spv/frame and /spv/map only, drives /cmd_vel (experiments, sweeps)"),
+    "camera": NodeSpec("raspv_camera.camera_node", "raspv_camera.camera_params:PARAMS", "a real RGB-D camera (RealSense, OpenNI2, DepthAI) or its SDK's recording: colour, registered depth, camera info, IMU"),
     "replay": NodeSpec("raspv_camera.replay_node", "raspv_camera.replay_params:PARAMS", "a recorded bag as the source: original timing, rate, loop, remapping, /clock"),
 }
 

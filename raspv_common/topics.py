@@ -5,6 +5,8 @@ COLOR = "/camera/color/image_raw"           # sensor_msgs/Image rgb8
 DEPTH = "/camera/depth/image_raw"           # sensor_msgs/Image 32FC1 metres, registered to colour
 CAMERA_INFO = "/camera/color/camera_info"   # sensor_msgs/CameraInfo
 CAMERA_POSE = "/camera/pose"                # geometry_msgs/PoseStamped, world <- camera optical
+DEPTH_INFO = "/camera/depth/camera_info"    # sensor_msgs/CameraInfo of the registered depth (camera node)
+IMU = "/camera/imu"                         # sensor_msgs/Imu in the colour optical frame (camera node, when the device has one)
 
 # Simulator only.
 ODOM = "/odom"                              # nav_msgs/Odometry, base in world
