@@ -27,7 +27,9 @@ from typing import Any
 
 import yaml
 
+from raspv_bringup.file_kinds import check_files as check_named_files
 from raspv_bringup.registry import NODES, schema_for
+from raspv_common.text_files import read_yaml_file
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO_ROOT / "config"
@@ -75,13 +77,6 @@ def resolve_graph_path(name: str) -> Path:
     return CONFIG_DIR / f"{name}.yaml"
 
 
-def _yaml_error(path: Path, exc: yaml.YAMLError) -> str:
-    mark = getattr(exc, "problem_mark", None)
-    where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-    return f"{path}: {where}invalid YAML ({problem})"
-
-
 def parse_override(text: str) -> tuple[str, str, Any]:
     """``node.param:=value`` (value parsed as YAML) → (node, param, value)."""
     if ":=" not in text or "." not in text.split(":=", 1)[0]:
@@ -95,17 +90,14 @@ def parse_override(text: str) -> tuple[str, str, Any]:
     return node, param, value
 
 
-def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
-    """Read and validate a graph file; raise :class:`GraphError` listing every mistake."""
+def load_graph(path: str | Path, overrides: list[str] | None = None, check_files: bool = True) -> Graph:
+    """Read and validate a graph file; raise :class:`GraphError` listing every mistake.
+    With ``check_files``, every file a parameter names (worlds and their meshes, devices,
+    maps, bags, …; see :mod:`raspv_bringup.file_kinds`) is checked too."""
     path = Path(path)
     if not path.is_file():
         raise GraphError([f"{path}: no such graph file" + (" (it is a directory)" if path.is_dir() else "")])
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise GraphError([_yaml_error(path, exc)]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise GraphError([f"{path}: cannot read ({exc})"]) from None
+    doc = read_yaml_file(path, "graph file", lambda message: GraphError([message]), str(path))
     if not isinstance(doc, dict):
         raise GraphError([f"{path}: expected a mapping with a 'launch' section and node parameter sections"])
     errors: list[str] = []
@@ -188,6 +180,9 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
         good, bad = schema.validate(values)
         for key, message in bad:
             errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
+        if check_files:
+            for key, message in check_named_files(schema, {**node.params, **good}):
+                errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
         for k, v in builtin.items():
             if not isinstance(v, bool):
                 errors.append(f"{path}: {node.name}.ros__parameters.{k}: expected true or false, got {v!r}")

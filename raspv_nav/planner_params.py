@@ -2,9 +2,10 @@
 from raspv_common.params import Param
 
 PARAMS = [
-    Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`); or use 'world'", dynamic=False),
+    Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`); or use 'world'", dynamic=False,
+          file_kind="map"),
     Param("world", "", "simulator world (name or file): its structural map (walls, doors, stairs) is the building map",
-          dynamic=False),
+          dynamic=False, file_kind="world"),
     Param("goal", [0.0, 0.0], "goal position (x, y) in the world frame (unless goal_name is set)", unit="m"),
     Param("goal_name", "", "name of a goal of the simulator world (overrides 'goal')"),
     Param("robot_radius", 0.3, "clearance kept from obstacles", minimum=0.05, maximum=1.5, unit="m"),
