@@ -13,6 +13,7 @@ BENCHES: dict[str, str] = {
     "spv": "raspv_spv.bench",
     "bag": "raspv_camera.bag_bench",
     "hmd": "raspv_hmd.bench",
+    "restart": "raspv_bringup.restart_bench",
 }
 
 

@@ -7,6 +7,7 @@ launch:
     - kind: sim                  # node kind, see `raspv nodes`
       name: sim                  # optional, node name (default: the kind)
       restart: false             # optional, restart it when it dies instead of stopping the graph
+      spare: true                # optional (default: as restart), keep a warm spare process for restarts
     - kind: spv
 sim:
   ros__parameters: {world: apartment}
@@ -34,7 +35,7 @@ from raspv_common.text_files import read_yaml_file
 REPO_ROOT = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO_ROOT / "config"
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-_NODE_KEYS = {"kind", "name", "restart", "env"}
+_NODE_KEYS = {"kind", "name", "restart", "spare", "env"}
 GLOBAL_PARAMS = {"use_sim_time": False}  # accepted for every node (ROS built-in)
 
 
@@ -53,6 +54,7 @@ class NodeEntry:
     restart: bool
     params: dict[str, Any]
     env: dict[str, str] = field(default_factory=dict)
+    spare: bool = False        # keep a warm spare process to restart from (raspv_bringup/warm_spare.py)
 
     @property
     def module(self) -> str:
@@ -136,7 +138,12 @@ def load_graph(path: str | Path, overrides: list[str] | None = None, check_files
         if not isinstance(restart, bool):
             errors.append(f"{where}.restart: expected true or false, got {restart!r}")
             restart = False
-        nodes.append(NodeEntry(kind, name, restart, {}, _string_map(item.get("env", {}), f"{where}.env", errors)))
+        spare = item.get("spare", restart)
+        if not isinstance(spare, bool):
+            errors.append(f"{where}.spare: expected true or false, got {spare!r}")
+            spare = False
+        nodes.append(NodeEntry(kind, name, restart, {}, _string_map(item.get("env", {}), f"{where}.env", errors),
+                               spare=spare and restart))
 
     by_name = {n.name: n for n in nodes}
     sections: dict[str, dict[str, Any]] = {}

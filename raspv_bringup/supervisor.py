@@ -28,11 +28,15 @@ from typing import IO, Callable
 from raspv_bringup.graph import Graph, NodeEntry, node_params_file
 from raspv_bringup.middleware import middleware_env
 from raspv_bringup.node_output import NodeLog, TracebackSummariser, new_launch_log_dir
+from raspv_bringup.warm_spare import WarmSpare
+from raspv_common.startup_timing import SPAWN_TIME_ENV
 
 _libc = ctypes.CDLL(None, use_errno=True)
 _PR_SET_PDEATHSIG = 1
 MAX_RESTARTS = 5          # within RESTART_WINDOW_S, then the graph stops
 RESTART_WINDOW_S = 60.0
+SPARE_DELAY_S = 5.0       # a warm spare is started this long after its node, not competing with its start
+MAX_SPARE_FAILURES = 2    # spares that die unasked before this node gets no more of them
 
 
 def _die_with_parent() -> None:  # runs in the child between fork and exec
@@ -62,6 +66,8 @@ class NodeProcess:
     started_at: float = 0.0                                # monotonic time of the current process's spawn
     pidfd: int | None = None
     reader: threading.Thread | None = None
+    spare: WarmSpare | None = None                         # imports done, waiting to take over
+    spare_failures: int = 0
 
 
 class Supervisor:
@@ -115,24 +121,70 @@ class Supervisor:
         return self._stopping and (ignored or exception_line.startswith("KeyboardInterrupt"))
 
     # -- processes -------------------------------------------------------------------------
-    def command(self, node: NodeProcess) -> list[str]:
-        return [self.python, "-m", "raspv_bringup.node_entry", node.entry.module, "--ros-args", "-r",
-                f"__node:={node.entry.name}", "--params-file", str(node.params_path)]
+    def command(self, node: NodeProcess, spare: bool = False) -> list[str]:
+        return [self.python, "-m", "raspv_bringup.node_entry", *(["--spare"] if spare else []), node.entry.module,
+                "--ros-args", "-r", f"__node:={node.entry.name}", "--params-file", str(node.params_path)]
 
-    def _spawn(self, node: NodeProcess) -> None:
+    def _popen(self, node: NodeProcess, spare: bool) -> tuple[subprocess.Popen, threading.Thread]:
         env = dict(self.env)
         env.update(node.entry.env)
         env["PYTHONUNBUFFERED"] = "1"
+        env[SPAWN_TIME_ENV] = repr(time.time())          # start-up timing (raspv_common.startup_timing)
+        proc = subprocess.Popen(self.command(node, spare), env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, stdin=subprocess.PIPE if spare else subprocess.DEVNULL,
+                                start_new_session=True, preexec_fn=_die_with_parent)
+        reader = threading.Thread(target=self._pump, args=(node, proc.stdout), daemon=True)
+        reader.start()
+        return proc, reader
+
+    def _spawn(self, node: NodeProcess) -> None:
         node.started_at = time.monotonic()
-        node.proc = subprocess.Popen(self.command(node), env=env, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                     start_new_session=True, preexec_fn=_die_with_parent)
+        node.proc, node.reader = self._popen(node, spare=False)
         node.exit_code = None
         if node.log is not None:
             node.log.mark(f"started pid {node.proc.pid}: {' '.join(self.command(node))}")
         node.pidfd = _pidfd(node.proc.pid)
-        node.reader = threading.Thread(target=self._pump, args=(node, node.proc.stdout), daemon=True)
-        node.reader.start()
+
+    def _take_over_from_spare(self, node: NodeProcess) -> bool:
+        """Make the node's warm spare its process (False: no usable spare)."""
+        spare, node.spare = node.spare, None
+        if spare is None or not spare.promote():
+            if spare is not None:
+                self._collect_spare(node, spare)
+            return False
+        node.started_at = time.monotonic()
+        node.proc, node.reader, node.exit_code = spare.proc, spare.reader, None
+        node.pidfd = _pidfd(node.proc.pid)
+        if node.log is not None:
+            node.log.mark(f"warm spare pid {node.proc.pid} took over")
+        return True
+
+    def _keep_spares(self) -> None:
+        """Start a warm spare for every node that should have one (SPARE_DELAY_S after the node
+        started, so it does not slow the node's own start); notice spares that died."""
+        now = time.monotonic()
+        for node in self.nodes:
+            if node.spare is not None and not node.spare.alive:
+                code = self._collect_spare(node, node.spare)
+                node.spare = None
+                node.spare_failures += 1
+                self.say(f"raspv launch: the warm spare of '{node.entry.name}' ended ({exit_reason(code)})"
+                         + ("; restarts start cold" if node.spare_failures >= MAX_SPARE_FAILURES else ""))
+            if (node.entry.spare and node.spare is None and node.exit_code is None and node.proc is not None
+                    and node.spare_failures < MAX_SPARE_FAILURES and now - node.started_at >= SPARE_DELAY_S):
+                proc, reader = self._popen(node, spare=True)
+                node.spare = WarmSpare(proc, reader, now)
+                if node.log is not None:
+                    node.log.mark(f"warm spare pid {proc.pid} started")
+
+    def _collect_spare(self, node: NodeProcess, spare: WarmSpare) -> int | None:
+        """End ``spare`` and count its memory and CPU time as the node's."""
+        rss_kb, cpu_s = spare.discard()
+        node.peak_rss_kb = max(node.peak_rss_kb, rss_kb)
+        node.cpu_s += cpu_s
+        if spare.reader is not None:
+            spare.reader.join(timeout=1.0)
+        return spare.proc.returncode
 
     def start(self) -> None:
         for node in self.nodes:
@@ -181,6 +233,7 @@ class Supervisor:
                             self._stopping = True
                             self._stop.set()
                             break
+                self._keep_spares()
                 self._wait_for_an_exit(0.1)
         finally:
             self.shutdown()
@@ -214,8 +267,11 @@ class Supervisor:
             return False
         node.restart_count += 1
         node.last_restart_reason = why
-        self.say(f"raspv launch: node '{node.entry.name}' ended ({why}); restarting it")
-        self._spawn(node)
+        if self._take_over_from_spare(node):
+            self.say(f"raspv launch: node '{node.entry.name}' ended ({why}); restarting it (warm spare, pid {node.proc.pid})")
+        else:
+            self._spawn(node)
+            self.say(f"raspv launch: node '{node.entry.name}' ended ({why}); restarting it (pid {node.proc.pid})")
         return True
 
     def _signal_all(self, sig: int) -> None:
@@ -237,6 +293,12 @@ class Supervisor:
     def shutdown(self) -> None:
         """SIGINT every node, then SIGTERM, then SIGKILL; reap all; print the resource table."""
         self._stopping = True
+        for node in self.nodes:                 # unused spares: closing stdin makes them exit
+            if node.spare is not None and node.spare.proc.stdin:
+                try:
+                    node.spare.proc.stdin.close()
+                except OSError:
+                    pass
         self._signal_all(signal.SIGINT)
         if not self._wait_all(self.shutdown_timeout_s):
             slow = [n.entry.name for n in self.nodes if n.exit_code is None]
@@ -246,6 +308,10 @@ class Supervisor:
                 self._signal_all(signal.SIGKILL)
                 for n in self.nodes:
                     self._reap(n, block=True)
+        for node in self.nodes:
+            if node.spare is not None:
+                self._collect_spare(node, node.spare)
+                node.spare = None
         # Anything a node left behind in its process group goes too.
         for node in self.nodes:
             if node.proc is not None:
