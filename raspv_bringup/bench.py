@@ -14,6 +14,7 @@ BENCHES: dict[str, str] = {
     "bag": "raspv_camera.bag_bench",
     "hmd": "raspv_hmd.bench",
     "restart": "raspv_bringup.restart_bench",
+    "budget": "raspv_spv.budget_bench",
 }
 
 
