@@ -15,6 +15,7 @@ BENCHES: dict[str, str] = {
     "hmd": "raspv_hmd.bench",
     "restart": "raspv_bringup.restart_bench",
     "budget": "raspv_spv.budget_bench",
+    "soak": "raspv_bringup.soak_bench",
 }
 
 

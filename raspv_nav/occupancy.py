@@ -79,7 +79,11 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     if abs(origin[2]) > 1e-9:
         raise MapFormatError(f"{yaml_path}: 'origin' yaw must be 0 (rotated maps are not supported)")
     image_path = (yaml_path.parent / str(meta["image"])).resolve()
-    img = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
+    try:
+        data = np.fromfile(image_path, dtype=np.uint8)   # read here: cv2.imread logs its own warning
+    except OSError:
+        data = None
+    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data is not None and data.size else None
     if img is None:
         raise MapFormatError(f"{yaml_path}: 'image' {image_path} is not a readable image")
     occ_t, free_t = meta.get("occupied_thresh", 0.65), meta.get("free_thresh", 0.196)
