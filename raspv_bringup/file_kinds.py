@@ -101,19 +101,24 @@ def check_file(kind: str, value: str) -> str | None:
     return None
 
 
-def check_files(params: Iterable[Param], values: dict[str, Any]) -> list[tuple[str, str]]:
+def check_files(params: Iterable[Param], values: dict[str, Any],
+                cache: dict[tuple[str, str], str | None] | None = None) -> list[tuple[str, str]]:
     """Run the file checks of every parameter of ``params`` that declares a file kind and has a
-    non-empty value in ``values``; returns (parameter, message) for each failure."""
+    non-empty value in ``values``; returns (parameter, message) for each failure. ``cache``
+    (kind, value) → result spares checking a file twice (two nodes naming one world)."""
     errors = []
+    cache = {} if cache is None else cache
     for p in params:
         if not p.file_kind:
             continue
         value = values.get(p.name, p.default)
         for item in (value if isinstance(value, list) else [value]):
             if isinstance(item, str) and item.strip():
-                message = check_file(p.file_kind, item)
-                if message:
-                    errors.append((p.name, message))
+                key = (p.file_kind, item)
+                if key not in cache:
+                    cache[key] = check_file(p.file_kind, item)
+                if cache[key]:
+                    errors.append((p.name, cache[key]))
     return errors
 
 

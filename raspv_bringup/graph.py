@@ -175,6 +175,7 @@ def load_graph(path: str | Path, overrides: list[str] | None = None, check_files
             continue
         sections.setdefault(node, {})[param] = value
 
+    checked: dict[tuple[str, str], str | None] = {}      # file checks by (kind, value), done once
     for node in nodes:
         schema = schema_for(node.kind)
         for gk, gv in global_params.items():
@@ -188,7 +189,7 @@ def load_graph(path: str | Path, overrides: list[str] | None = None, check_files
         for key, message in bad:
             errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
         if check_files:
-            for key, message in check_named_files(schema, {**node.params, **good}):
+            for key, message in check_named_files(schema, {**node.params, **good}, checked):
                 errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
         for k, v in builtin.items():
             if not isinstance(v, bool):

@@ -101,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
                         rows.append((name, proc.pid, t, rss / 1e6))
                 if t >= next_report:
                     total = sum(s.segments[-1][2][-1] for s in series.values() if s.segments)
-                    print(f"  {t / 60:5.1f} min: {total:.0f} MB in all, {len(stamps)} display frames received", flush=True)
+                    frames = f", {len(stamps)} display frames received" if rate is not None else ""
+                    print(f"  {t / 60:5.1f} min: {total:.0f} MB in all{frames}", flush=True)
                     next_report += 60.0
                 time.sleep(max(0.0, args.interval - ((time.monotonic() - t0) - t)))
         finally:

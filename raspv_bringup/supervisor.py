@@ -211,8 +211,6 @@ class Supervisor:
         if node.pidfd is not None:
             os.close(node.pidfd)
             node.pidfd = None
-        if node.reader is not None:
-            node.reader.join(timeout=2.0)
         if node.log is not None:
             node.log.mark(f"pid {node.proc.pid} ended ({exit_reason(node.exit_code)})")
         return True
@@ -256,11 +254,14 @@ class Supervisor:
     def _handle_exit(self, node: NodeProcess) -> bool:
         """Report a node that ended; restart it if allowed. False means: stop the graph."""
         why = exit_reason(node.exit_code)
+        now = time.monotonic()
+        node.restarts = [t for t in node.restarts if now - t < RESTART_WINDOW_S] + [now]
+        if not node.entry.restart or len(node.restarts) > MAX_RESTARTS:
+            if node.reader is not None:           # its last lines (the reason) come before ours
+                node.reader.join(timeout=2.0)
         if not node.entry.restart:
             self.say(f"raspv launch: node '{node.entry.name}' ended ({why}); stopping the graph")
             return False
-        now = time.monotonic()
-        node.restarts = [t for t in node.restarts if now - t < RESTART_WINDOW_S] + [now]
         if len(node.restarts) > MAX_RESTARTS:
             self.say(f"raspv launch: node '{node.entry.name}' ended ({why}) {MAX_RESTARTS} times within "
                      f"{RESTART_WINDOW_S:.0f} s; stopping the graph")
