@@ -1,6 +1,7 @@
 """Long-run figures of a graph (no rclpy): memory growth per node and dropped display frames.
 
-- :class:`RssSeries` collects (time, resident memory) samples of one node; a restart (new pid)
+- :class:`RssSeries` collects (time, resident memory) samples of one node (in total, or one
+  kind of it: :func:`proc_memory` splits private heap from shared-memory pages); a restart (new pid)
   starts a new segment, since a fresh process's memory says nothing about the old one's growth.
   :meth:`RssSeries.growth` fits a straight line (``scipy.stats.linregress``) to the samples
   after a warm-up, per segment, and reports the slope in MB/hour with its standard error —
@@ -66,6 +67,19 @@ class RssSeries:
         slope = float(np.sum(w * [f[0] for f in fits]))
         stderr = float(math.sqrt(np.sum((w * [f[1] for f in fits]) ** 2)))
         return Growth(slope, stderr, float(spans.sum()), int(sum(f[3] for f in fits)), fits[0][4], fits[-1][5])
+
+
+def proc_memory(pid: int) -> dict[str, int]:
+    """Resident memory of a process by kind [bytes], from ``/proc/<pid>/status``: ``anon``
+    (private heap: what a leak grows), ``shmem`` (shared-memory pages touched, e.g. the DDS
+    segments of this and other processes — bounded by their sizes), ``file`` (mapped files)."""
+    out = {}
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            for key, name in (("RssAnon:", "anon"), ("RssShmem:", "shmem"), ("RssFile:", "file")):
+                if line.startswith(key):
+                    out[name] = int(line.split()[1]) * 1024
+    return out
 
 
 def display_gaps(stamps_s: list[float] | np.ndarray, rate_hz: float) -> int:

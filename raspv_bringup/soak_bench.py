@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     import psutil
 
     from raspv_bringup.graph import GraphError, load_graph, resolve_graph_path
-    from raspv_bringup.soak import RssSeries, display_gaps
+    from raspv_bringup.soak import RssSeries, display_gaps, proc_memory
     from raspv_bringup.supervisor import Supervisor
     from raspv_bringup.testing import Probe, claim_private_domain
 
@@ -95,12 +95,15 @@ def run(args: argparse.Namespace) -> int:
                             continue
                         try:
                             rss = psutil.Process(proc.pid).memory_info().rss
-                        except psutil.Error:
+                            kinds = proc_memory(proc.pid)
+                        except (psutil.Error, OSError):
                             continue
                         series.setdefault(name, RssSeries(name)).add(proc.pid, t, rss)
-                        rows.append((name, proc.pid, t, rss / 1e6))
+                        for kind in ("anon", "shmem"):
+                            series.setdefault(f"{name}/{kind}", RssSeries(name)).add(proc.pid, t, kinds.get(kind, 0))
+                        rows.append((name, proc.pid, t, rss / 1e6, kinds.get("anon", 0) / 1e6, kinds.get("shmem", 0) / 1e6))
                 if t >= next_report:
-                    total = sum(s.segments[-1][2][-1] for s in series.values() if s.segments)
+                    total = sum(s.segments[-1][2][-1] for k, s in series.items() if s.segments and "/" not in k)
                     frames = f", {len(stamps)} display frames received" if rate is not None else ""
                     print(f"  {t / 60:5.1f} min: {total:.0f} MB in all{frames}", flush=True)
                     next_report += 60.0
@@ -113,10 +116,13 @@ def run(args: argparse.Namespace) -> int:
     if args.csv:
         with open(args.csv, "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow(["node", "pid", "t_s", "rss_mb"])
+            w.writerow(["node", "pid", "t_s", "rss_mb", "anon_mb", "shmem_mb"])
             w.writerows(rows)
+    print("  growth: MB/hour of resident memory, ± its standard error; heap = private memory (a leak grows it), shared "
+          "mem. = pages of DDS shared-memory segments touched (bounded by their size, 16 MB per process)")
 
-    print(f"  {'node':<18} {'restarts':>8} {'RSS first':>10} {'last':>8} {'growth MB/h':>16} {'fit over':>9}  target ≤ {GROWTH_TARGET_MB_H:g} MB/h")
+    print(f"  {'node':<18} {'restarts':>8} {'RSS first':>10} {'last':>8} {'growth MB/h':>16} {'of which heap':>14} "
+          f"{'shared mem.':>12} {'fit over':>9}  target ≤ {GROWTH_TARGET_MB_H:g} MB/h")
     worst = 0.0
     for node in sup.nodes:
         for name in (node.entry.name, f"{node.entry.name} (spare)"):
@@ -130,8 +136,11 @@ def run(args: argparse.Namespace) -> int:
                 continue
             worst = max(worst, g.slope_mb_h) if name == node.entry.name else worst
             ok = "ok" if g.slope_mb_h - 2 * g.stderr_mb_h <= GROWTH_TARGET_MB_H else "ABOVE"
+            heap, shm = (series.get(f"{name}/{k}") for k in ("anon", "shmem"))
+            heap_g, shm_g = (x.growth(warmup) if x is not None else None for x in (heap, shm))
+            parts = " ".join(f"{x.slope_mb_h:>+12.2f}" if x is not None else f"{'?':>12}" for x in (heap_g, shm_g))
             print(f"  {name:<18} {restarts:>8} {g.first_mb:>8.0f}MB {g.last_mb:>6.0f}MB {g.slope_mb_h:>+8.2f} ± {g.stderr_mb_h:<5.2f} "
-                  f"{g.span_s / 60:>7.1f}m  {ok}")
+                  f"{parts}  {g.span_s / 60:>7.1f}m  {ok}")
     if rate is not None:
         own = sum(int(m) for m in re.findall(r"^\[\w+\] \[WARN\].*dropped (\d+) display frames", text, re.M))
         final = re.findall(r"spv: (\d+) display frames, (\d+) dropped", text)
