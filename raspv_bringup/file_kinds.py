@@ -29,11 +29,14 @@ Check = Callable[[str], Any]
 @dataclass(frozen=True)
 class FileKind:
     """``check``: ``"module:function"`` or a callable taking the parameter's value (a path or,
-    for kinds with shipped entries, a name) and raising ValueError/OSError with one line."""
+    for kinds with shipped entries, a name) and raising ValueError/OSError with one line.
+    ``with_params``: the check also takes the node's parameter values (a dict) — for files
+    whose meaning depends on another parameter (a model file and the backend that runs it)."""
 
     name: str
     check: str | Check
     description: str
+    with_params: bool = False
 
     def checker(self) -> Check:
         if callable(self.check):
@@ -43,8 +46,10 @@ class FileKind:
 
 
 def _check_bag(value: str) -> None:
-    from raspv_camera.bag_reader import BagReader
-
+    try:                                   # issue 11 moves the bag code to raspv_bags
+        from raspv_bags.reader import BagReader
+    except ImportError:
+        from raspv_camera.bag_reader import BagReader
     BagReader(value).close()
 
 
@@ -80,20 +85,24 @@ FILE_KINDS: dict[str, FileKind] = {
 }
 
 
-def register_file_kind(name: str, check: str | Check, description: str) -> FileKind:
+def register_file_kind(name: str, check: str | Check, description: str, with_params: bool = False) -> FileKind:
     """Declare a new kind of file (e.g. from the package that loads it); returns it."""
-    kind = FileKind(name, check, description)
+    kind = FileKind(name, check, description, with_params)
     FILE_KINDS[name] = kind
     return kind
 
 
-def check_file(kind: str, value: str) -> str | None:
-    """None when ``value`` is a usable file of ``kind``, else one line saying why."""
+def check_file(kind: str, value: str, params: dict[str, Any] | None = None) -> str | None:
+    """None when ``value`` is a usable file of ``kind``, else one line saying why. ``params``:
+    the node's parameter values, for kinds whose check needs them."""
     spec = FILE_KINDS.get(kind)
     if spec is None:
         return f"declares an unknown file kind {kind!r} (known: {', '.join(sorted(FILE_KINDS))})"
     try:
-        spec.checker()(value)
+        if spec.with_params:
+            spec.checker()(value, dict(params or {}))
+        else:
+            spec.checker()(value)
     except (ValueError, OSError) as exc:
         return _one_line(exc) or f"{value}: not a usable {spec.description}"
     except Exception as exc:  # noqa: BLE001 - a loader's bug must still be one line, not a traceback
@@ -102,7 +111,7 @@ def check_file(kind: str, value: str) -> str | None:
 
 
 def check_files(params: Iterable[Param], values: dict[str, Any],
-                cache: dict[tuple[str, str], str | None] | None = None) -> list[tuple[str, str]]:
+                cache: dict[tuple, str | None] | None = None) -> list[tuple[str, str]]:
     """Run the file checks of every parameter of ``params`` that declares a file kind and has a
     non-empty value in ``values``; returns (parameter, message) for each failure. ``cache``
     (kind, value) → result spares checking a file twice (two nodes naming one world)."""
@@ -114,9 +123,10 @@ def check_files(params: Iterable[Param], values: dict[str, Any],
         value = values.get(p.name, p.default)
         for item in (value if isinstance(value, list) else [value]):
             if isinstance(item, str) and item.strip():
-                key = (p.file_kind, item)
+                kind = FILE_KINDS.get(p.file_kind)
+                key = (p.file_kind, item) if kind is None or not kind.with_params else (p.file_kind, item, repr(values))
                 if key not in cache:
-                    cache[key] = check_file(p.file_kind, item)
+                    cache[key] = check_file(p.file_kind, item, values)
                 if cache[key]:
                     errors.append((p.name, cache[key]))
     return errors

@@ -175,7 +175,7 @@ def load_graph(path: str | Path, overrides: list[str] | None = None, check_files
             continue
         sections.setdefault(node, {})[param] = value
 
-    checked: dict[tuple[str, str], str | None] = {}      # file checks by (kind, value), done once
+    checked: dict[tuple, str | None] = {}               # file checks by (kind, value), done once
     for node in nodes:
         schema = schema_for(node.kind)
         for gk, gv in global_params.items():

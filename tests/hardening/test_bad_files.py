@@ -134,3 +134,19 @@ def test_file_checks_follow_overrides_and_empty_means_unset(tmp_path):
     assert load_graph(graph)                                   # bag "" is "not set": the node says it is required
     with pytest.raises(GraphError, match=r"spv\.ros__parameters\.device: device file nowhere/x\.yaml does not exist"):
         load_graph(graph, ["spv.device:=nowhere/x.yaml"])
+
+
+def test_a_file_kind_can_be_registered_and_can_read_the_other_parameters(tmp_path):
+    from raspv_bringup.file_kinds import FILE_KINDS, check_file, register_file_kind
+
+    def check_model(value, params):
+        if params.get("backend") == "onnx" and not value.endswith(".onnx"):
+            raise ValueError(f"{value}: the onnx backend needs an .onnx model")
+
+    try:
+        register_file_kind("test_model", check_model, "model file", with_params=True)
+        assert check_file("test_model", "net.pt", {"backend": "onnx"}) == "net.pt: the onnx backend needs an .onnx model"
+        assert check_file("test_model", "net.pt", {"backend": "torchscript"}) is None
+        assert "unknown file kind 'nope'" in check_file("nope", "x")
+    finally:
+        FILE_KINDS.pop("test_model", None)
