@@ -5,7 +5,9 @@
   starts a new segment, since a fresh process's memory says nothing about the old one's growth.
   :meth:`RssSeries.growth` fits a straight line (``scipy.stats.linregress``) to the samples
   after a warm-up, per segment, and reports the slope in MB/hour with its standard error —
-  weighted by segment length when a node restarted.
+  weighted by segment length when a node restarted — and the slope over the second half of
+  the samples alone: memory that fills up to a bound (allocator pools, caches) has a positive
+  overall slope and a late slope near zero; a leak keeps both.
 - :func:`display_gaps` counts the display frames missing between consecutive ``/spv/frame``
   stamps (the spv node stamps each frame at its display tick, so a late or skipped tick shows
   as a gap whatever the transport does).
@@ -29,6 +31,8 @@ class Growth:
     samples: int
     first_mb: float
     last_mb: float
+    late_slope_mb_h: float = 0.0       # over the second half of the samples: ~0 when the growth levels off
+    late_stderr_mb_h: float = 0.0
 
 
 @dataclass
@@ -58,15 +62,21 @@ class RssSeries:
             if t_arr.size < 3 or t_arr[-1] - t_arr[0] <= 0:
                 continue
             fit = linregress(t_arr, mb_arr)
+            half = t_arr >= t_arr[0] + 0.5 * (t_arr[-1] - t_arr[0])
+            late = linregress(t_arr[half], mb_arr[half]) if half.sum() >= 3 else fit
             fits.append((fit.slope * 3600.0, fit.stderr * 3600.0, t_arr[-1] - t_arr[0], t_arr.size,
-                         float(mb_arr[0]), float(mb_arr[-1])))
+                         float(mb_arr[0]), float(mb_arr[-1]), late.slope * 3600.0, late.stderr * 3600.0))
         if not fits:
             return None
         spans = np.array([f[2] for f in fits])
         w = spans / spans.sum()
-        slope = float(np.sum(w * [f[0] for f in fits]))
-        stderr = float(math.sqrt(np.sum((w * [f[1] for f in fits]) ** 2)))
-        return Growth(slope, stderr, float(spans.sum()), int(sum(f[3] for f in fits)), fits[0][4], fits[-1][5])
+
+        def combine(i: int, j: int) -> tuple[float, float]:
+            return float(np.sum(w * [f[i] for f in fits])), float(math.sqrt(np.sum((w * [f[j] for f in fits]) ** 2)))
+
+        (slope, stderr), (late, late_err) = combine(0, 1), combine(6, 7)
+        return Growth(slope, stderr, float(spans.sum()), int(sum(f[3] for f in fits)), fits[0][4], fits[-1][5],
+                      late, late_err)
 
 
 def proc_memory(pid: int) -> dict[str, int]:

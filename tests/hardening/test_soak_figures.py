@@ -46,3 +46,14 @@ def test_display_gaps_count_the_frames_missing_between_stamps():
     jitter = [s + rng.uniform(-0.004, 0.004) for s in stamps]        # ±4 ms around a 20 ms period
     assert display_gaps(jitter, 50.0) == 0
     assert display_gaps([], 50.0) == 0
+
+
+def test_growth_that_levels_off_has_a_late_slope_near_zero_and_a_leak_does_not():
+    t = np.arange(0.0, 1800.0, 5.0)
+    bounded, leak = RssSeries("scene"), RssSeries("leaky")
+    for ti in t:
+        bounded.add(1, ti, int((160.0 + 1.5 * (1 - np.exp(-ti / 300.0))) * 1e6))   # +1.5 MB, then flat
+        leak.add(2, ti, int((160.0 + 5.0 * ti / 3600.0) * 1e6))                    # 5 MB/h for ever
+    b, lk = bounded.growth(120.0), leak.growth(120.0)
+    assert b.slope_mb_h > 1.0 and abs(b.late_slope_mb_h) < 0.5
+    assert lk.slope_mb_h == pytest.approx(5.0) and lk.late_slope_mb_h == pytest.approx(5.0)
