@@ -27,8 +27,9 @@ period and, when it does not fit, says how many phosphenes of that size would. V
 The publish is counted as one more copy of the image bytes (rclpy serialises an Image with a
 copy of its data); what the model does not see (message headers, the middleware) the running
 node measures on its own display loop and adds (:func:`observed_overhead_ms`). Measured here
-(``raspv bench budget``), the CPU time of the display work was 0.82–1.22 × the prediction over
-ten configurations; the factor of two between "warn" and "refuse" absorbs that.
+(``raspv bench budget``, two runs on a shared 2-core VM), the CPU time of the display work was
+0.74–1.52 × the prediction over ten configurations (median 0.99); the factor of two between
+"warn" and "refuse" absorbs that.
 """
 from __future__ import annotations
 
