@@ -16,6 +16,9 @@ BENCHES: dict[str, str] = {
     "hmd": "raspv_hmd.bench",
     "seg": "raspv_perception.segmentation_bench",
     "nav": "raspv_nav.bench",
+    "restart": "raspv_bringup.restart_bench",
+    "budget": "raspv_spv.budget_bench",
+    "soak": "raspv_bringup.soak_bench",
 }
 
 

@@ -26,6 +26,7 @@ from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrins
                                       seconds_to_stamp)
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.params import Param, ParamSchema
+from raspv_common.startup_timing import startup_mark
 
 
 class ConfigurationError(Exception):
@@ -165,10 +166,12 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     or the node's ``exit_code`` when it shut itself down with one."""
     args = list(sys.argv if argv is None else argv)
     rclpy.init(args=args)
+    startup_mark("rclpy initialised")
     node = None
     code = 0
     try:
         node = node_factory()
+        startup_mark("node built")
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()

@@ -2,9 +2,10 @@
 from raspv_common.params import Param
 
 PARAMS = [
-    Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`); or use 'world'", dynamic=False),
+    Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`); or use 'world'", dynamic=False,
+          file_kind="map"),
     Param("world", "", "simulator world (name or file): its structural map (walls, doors, stairs) is the building map",
-          dynamic=False),
+          dynamic=False, file_kind="world"),
     Param("map_from_odom", [0.0, 0.0, 0.0], "where the pose source's world/odometry frame sits on the map: "
           "x, y [m] and yaw [deg] of its origin and x axis (e.g. the recording's start on the building map)",
           dynamic=False),

@@ -18,6 +18,8 @@ from typing import Any
 
 import yaml
 
+from raspv_common.text_files import display_path, read_yaml_file  # noqa: F401 - display_path is re-exported
+
 WORLDS_DIR = Path(__file__).resolve().parent / "worlds"
 PYBULLET_DATA_PREFIX = "pybullet_data:"
 
@@ -315,15 +317,6 @@ class _Entry:
         return v
 
 
-def display_path(path: Path) -> str:
-    """``path`` relative to the working directory when that is shorter, for messages."""
-    try:
-        rel = os.path.relpath(path)
-        return rel if not rel.startswith("../..") else str(path)
-    except ValueError:
-        return str(path)
-
-
 def resolve_world_path(world: str | Path) -> Path:
     """A shipped world's name (``apartment``) or a path to a YAML file → the file's path."""
     text = str(world).strip()
@@ -331,6 +324,8 @@ def resolve_world_path(world: str | Path) -> Path:
         raise WorldFileError("no world given: name a shipped world (" + ", ".join(shipped_worlds()) + ") or a YAML file")
     candidate = Path(text).expanduser()
     if candidate.suffix in (".yaml", ".yml") or os.sep in text or candidate.exists():
+        if candidate.is_dir():
+            raise WorldFileError(f"{text}: is a directory, not a world file")
         if not candidate.is_file():
             raise WorldFileError(f"{text}: no such world file")
         return candidate.resolve()
@@ -349,17 +344,7 @@ def load_world(world: str | Path) -> WorldSpec:
     """Read and validate a world (shipped name or path). Raises :class:`WorldFileError`."""
     path = resolve_world_path(world)
     src = display_path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise WorldFileError(f"{src}: cannot read ({exc.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f"line {mark.line + 1}: " if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise WorldFileError(f"{src}: {line}invalid YAML ({problem})") from None
+    data = read_yaml_file(path, "world file", WorldFileError, src)
     return parse_world(data, src, path)
 
 

@@ -11,12 +11,15 @@ waits for a camera frame, and ticks it could not run on time are counted as drop
 With ``headless`` there is no display loop: each computed frame is published at once with its
 input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.
 ``/spv/map`` is latched and re-published whenever the map changes. Parameter changes build a
-complete new simulator and swap it in, or are refused with the reason; bad input images are
+complete new simulator and swap it in, or are refused with the reason — including settings whose
+display frame cannot keep the rate on this machine (:mod:`raspv_spv.display_budget`; those that
+will drop frames when the machine is busy are accepted with a warning); bad input images are
 skipped with one rate-limited warning.
 """
 from __future__ import annotations
 
 import array
+import os
 import statistics
 import sys
 from collections import deque
@@ -40,6 +43,7 @@ from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
+from raspv_spv import display_budget
 from raspv_spv.config import config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
@@ -48,6 +52,7 @@ from raspv_spv.simulator import InputError, PhospheneSimulator
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
+STARTUP_RATE_CHECK_S = 3.0     # the start-up configuration's display budget is checked this long after start
 _BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
 
 
@@ -100,6 +105,7 @@ class SpvNode(RaspvNode):
         if not self.params["headless"]:
             self._display_thread.start()
         self.create_timer(REPORT_PERIOD_S, self.report)
+        threading.Thread(target=self._check_rate_after_start, name="spv-rate-check", daemon=True).start()
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
 
@@ -113,6 +119,9 @@ class SpvNode(RaspvNode):
 
     def on_parameters(self, changes):
         merged = {**self.params, **changes}
+        verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
+        if verdict is not None and verdict.refuse:
+            return verdict.message
         try:
             new = build_simulator(merged)
         except _BUILD_ERRORS as exc:
@@ -130,7 +139,32 @@ class SpvNode(RaspvNode):
         if map_changed:
             self.publish_map()
         self.get_logger().info(self._describe(new))
+        if verdict is not None and verdict.warn:
+            self.get_logger().warning(verdict.message)
         return None
+
+    def display_rate_verdict(self, params: dict) -> display_budget.RateVerdict | None:
+        """Can ``params`` run at their display rate here? (:mod:`raspv_spv.display_budget`: a cost
+        model measured on this machine, plus the overhead measured on this node's display loop)."""
+        try:
+            current = display_budget.load_of_config(self.sim.config)
+            overhead = display_budget.observed_overhead_ms(list(self._tick_ms), current)
+        except ValueError:
+            overhead = 0.0
+        return display_budget.check_node_params(params, overhead_ms=overhead)
+
+    def _check_rate_after_start(self) -> None:
+        """Once, a few seconds after start (low priority thread): warn when the configuration
+        the node started with cannot keep its display rate."""
+        if self._stop_display.wait(STARTUP_RATE_CHECK_S):
+            return
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)   # this thread only (Linux)
+        except (AttributeError, OSError):
+            pass
+        verdict = self.display_rate_verdict(dict(self.params))
+        if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
+            self.get_logger().warning(verdict.message)
 
     def _update_subscriptions(self, needs: frozenset[str]) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional), and only those."""

@@ -9,7 +9,8 @@ from raspv_common.params import Param
 from raspv_spv.modes import MODES, OVERLAYS
 
 PARAMS = [
-    Param("device", "default", "device preset (default, argus_ii, argus_iii, alpha_ims, optimist) or a device YAML path"),
+    Param("device", "default", "device preset (default, argus_ii, argus_iii, alpha_ims, optimist) or a device YAML path",
+          file_kind="device"),
     Param("num_phosphenes", 0, "number of phosphenes N (0: the device's)", minimum=0, maximum=20000),
     Param("fov_deg", 0.0, "prosthesis horizontal field of view (0: the device's)", minimum=0.0, maximum=160.0, unit="deg"),
     Param("phosphene_fov_deg", 0.0, "phosphene diameter (0: the device's)", minimum=0.0, maximum=10.0, unit="deg"),
