@@ -257,8 +257,18 @@ def write_depthai_recording(directory: str | Path, frames: Iterable[SourceFrame]
             q_color.send(_imgframe(dai, np.asarray(f.color, np.uint8), dai.ImgFrame.Type.RGB888i, i, f.time, camera))
             if pace_s:
                 time.sleep(pace_s)
-        deadline = time.monotonic() + 10.0      # let the recorders take what is queued
-        while (rec_depth.input.getSize() or rec_color.input.getSize()) and time.monotonic() < deadline:
+        # let the recorders take what is queued: createInputQueue puts a host InputQueue node
+        # (with its own buffer) in front of each recorder, so every node's inputs must drain
+        inputs = [i for node in pipeline.getAllNodes() for i in node.getInputRefs()]
+        deadline = time.monotonic() + 10.0
+        quiet_since = None
+        while time.monotonic() < deadline:
+            if any(i.getSize() for i in inputs):
+                quiet_since = None
+            elif quiet_since is None:
+                quiet_since = time.monotonic()
+            elif time.monotonic() - quiet_since > 0.2:      # the last message taken is written
+                break
             time.sleep(0.01)
         pipeline.stop()
     return out
