@@ -19,7 +19,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
+from raspv_common.text_files import read_yaml_file
 
 from raspv_spv.implant_layout import EYES, LayoutError, load_layout
 from raspv_spv.retinotopy import CORTICAL_MAPS
@@ -179,10 +179,10 @@ def load_device(name_or_path: str | Path) -> Device:
         if not path.is_file():
             raise DeviceError(f"unknown device preset {text!r}; presets: {', '.join(preset_names())} "
                               "(or give the path of a device YAML file)")
+    elif path.is_dir():
+        raise DeviceError(f"device {text!r} is a directory; give a preset name ({', '.join(preset_names())}) "
+                          "or the path of a device YAML file")
     elif not path.is_file():
         raise DeviceError(f"device file {path} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise DeviceError(f"{path}: cannot read device YAML: {exc}".splitlines()[0]) from None
+    data = read_yaml_file(path, "device YAML file", DeviceError, str(path))
     return device_from_dict(data, str(path))

@@ -8,6 +8,8 @@ A display timer at ``rate`` Hz (50 by default, the temporal model's frame rate) 
 temporal model and publishes ``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never
 waits for a camera frame, and ticks it could not run on time are counted as dropped frames
 (the temporal model then advances by the frames that elapsed) and reported every 10 s.
+With ``headless`` there is no display loop: each computed frame is published at once with its
+input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.
 ``/spv/map`` is latched and re-published whenever the map changes. A parameter change is
 checked at once (map, implant layout, sprite model, mode: refused with the reason when it
 cannot be built) and the new simulator — sprites and temporal table can take seconds the first
@@ -20,6 +22,7 @@ warning.
 from __future__ import annotations
 
 import array
+import os
 import statistics
 import sys
 from collections import deque
@@ -39,11 +42,13 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
-from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
-from raspv_msgs.msg import StairDetection
+from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_msg import structure_from_msg
+from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
+from raspv_spv import display_budget
 from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
@@ -54,6 +59,7 @@ from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, de
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
+STARTUP_RATE_CHECK_S = 3.0     # the start-up configuration's display budget is checked this long after start
 _BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
 
 
@@ -129,8 +135,11 @@ class SpvNode(RaspvNode):
         # enough to drop 7 % of the frames in the demo graph.
         self._stop_display = threading.Event()
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
-        self._display_thread.start()
+        self._headless_stamp: float | None = None
+        if not self.params["headless"]:
+            self._display_thread.start()
         self.create_timer(REPORT_PERIOD_S, self.report)
+        threading.Thread(target=self._check_rate_after_start, name="spv-rate-check", daemon=True).start()
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
 
@@ -144,6 +153,9 @@ class SpvNode(RaspvNode):
 
     def on_parameters(self, changes):
         merged = {**self.params, **changes}
+        verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
+        if verdict is not None and verdict.refuse:
+            return verdict.message
         try:
             config, phosphene_map = checked_config(merged)
         except _BUILD_ERRORS as exc:
@@ -155,6 +167,8 @@ class SpvNode(RaspvNode):
         self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
+        if verdict is not None and verdict.warn:
+            self.get_logger().warning(verdict.message)
         return None
 
     # -- background rebuild (worker thread) ---------------------------------------------------
@@ -224,6 +238,29 @@ class SpvNode(RaspvNode):
                              extras=dict(self.extras))
         return inputs, self.stamps[main]
 
+    def display_rate_verdict(self, params: dict) -> display_budget.RateVerdict | None:
+        """Can ``params`` run at their display rate here? (:mod:`raspv_spv.display_budget`: a cost
+        model measured on this machine, plus the overhead measured on this node's display loop)."""
+        try:
+            current = display_budget.load_of_config(self.sim.config)
+            overhead = display_budget.observed_overhead_ms(list(self._tick_ms), current)
+        except ValueError:
+            overhead = 0.0
+        return display_budget.check_node_params(params, overhead_ms=overhead)
+
+    def _check_rate_after_start(self) -> None:
+        """Once, a few seconds after start (low priority thread): warn when the configuration
+        the node started with cannot keep its display rate."""
+        if self._stop_display.wait(STARTUP_RATE_CHECK_S):
+            return
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)   # this thread only (Linux)
+        except (AttributeError, OSError):
+            pass
+        verdict = self.display_rate_verdict(dict(self.params))
+        if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
+            self.get_logger().warning(verdict.message)
+
     def _update_subscriptions(self, needs: frozenset[str]) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional), and only those."""
         needs = frozenset(needs) | self.sim.optional_inputs
@@ -232,10 +269,14 @@ class SpvNode(RaspvNode):
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
                   "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels),
                   "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path),
-                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs)}
+                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs),
+                  "segmentation": (Image, topics.SEGMENTATION_LABELS, self.on_segmentation),
+                  "segmentation_classes": (ClassNames, topics.SEGMENTATION_CLASSES, self.on_segmentation_classes),
+                  "nav_guidance": (NavGuidance, topics.NAV_GUIDANCE, self.on_nav_guidance)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
-                self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
+                qos = LATCHED_QOS if name == "segmentation_classes" else SENSOR_QOS
+                self._subs[name] = self.create_subscription(msg_type, topic, callback, qos)
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
         unsupported = sorted(set(needs) - set(wanted) - {"camera"})
@@ -277,10 +318,36 @@ class SpvNode(RaspvNode):
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
 
+    def on_nav_guidance(self, msg: NavGuidance) -> None:
+        """The navigation assistant's guidance (world frame) for the guidance overlay."""
+        self.extras["nav_guidance"] = guidance_from_msg(msg)
+
     def on_stairs(self, msg: StairDetection) -> None:
         """The newest staircase detection (camera frame of its depth image) for the stairs overlay."""
         stair = staircase_from_msg(msg)
         self.extras["stairs"] = [] if stair is None else [stair]
+
+    def on_segmentation(self, msg: Image) -> None:
+        """Keep the last label images with their stamps (the highlight overlay takes the one of
+        its frame); when the labels of the frame the levels came from arrive late, redo them."""
+        try:
+            labels = image_to_array(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_LABELS}: {exc}")
+            return
+        stamp = stamp_to_seconds(msg.header.stamp)
+        self.extras["segmentation"] = (tuple(self.extras.get("segmentation", ())) + ((stamp, labels),))[-8:]
+        levels = self._levels
+        if levels is not None and abs(levels[2] - stamp) < 1e-6:
+            which = next((k for k, t in self.stamps.items() if abs(t - stamp) < 1e-6), None)
+            if which is not None:
+                self._frame_arrived(which)
+
+    def on_segmentation_classes(self, msg: ClassNames) -> None:
+        try:
+            self.extras["segmentation_classes"] = classes_from_msg(msg)
+        except ValueError as exc:
+            self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_CLASSES}: {exc}")
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)
@@ -317,6 +384,8 @@ class SpvNode(RaspvNode):
             if now - self._waiting_since > 1.0:          # not just the first frame overtaking the info
                 self.warn_throttled("no-info", f"images arrive but no camera info on {topics.CAMERA_INFO}; "
                                                "phosphenes stay off until it comes")
+            if self.params["headless"]:
+                self._headless_tick(self.stamps[which])
             return
         inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=self.stamps[which],
                              camera_pose=self.pose, scene=self.scene, scene_labels=self.scene_labels,
@@ -325,18 +394,33 @@ class SpvNode(RaspvNode):
             levels = sim.levels(inputs)
         except InputError as exc:
             self.warn_throttled("input", f"cannot use this frame: {exc}")
+            if self.params["headless"]:
+                self._headless_tick(self.stamps[which])    # a frame still goes out: controllers wait for it
             return
         with self._sim_lock:
             if self.sim is sim:                     # not swapped meanwhile (its levels would be blank)
                 self._levels = (map_id, levels, self.stamps[which])
+        if self.params["headless"]:
+            self._headless_tick(self.stamps[which])
+
+    def _headless_tick(self, stamp: float) -> None:
+        """Publish the frame of input time ``stamp`` [s], the temporal model advancing by the
+        display frames elapsed since the previous one."""
+        last, self._headless_stamp = self._headless_stamp, stamp
+        frames = 1 if last is None else max(1, int(round((stamp - last) * self.params["rate"])))
+        self.tick(frames, stamp)
 
     # -- display ------------------------------------------------------------------------------
-    def tick(self) -> None:
+    def tick(self, frames: int | None = None, stamp: float | None = None) -> None:
+        """One display frame (headless: ``frames`` elapsed, stamped ``stamp`` s)."""
         if not self.context.ok():                  # shutting down: the publishers are gone
             return
         t0 = time.monotonic()
-        frames = 1
-        if self._last_tick is not None:
+        if frames is not None:
+            pass
+        elif self._last_tick is None:
+            frames = 1
+        else:
             period = 1.0 / self.params["rate"]
             frames = max(1, int(round((t0 - self._last_tick) / period)))
             self._dropped += frames - 1
@@ -349,19 +433,24 @@ class SpvNode(RaspvNode):
             else:
                 levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
             brightness = sim.brightness(levels, frames)
-        image = sim.render(brightness)
-        header = self.header("phosphene")
-        msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
-        msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
-        msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
-        msg.data = array.array("B", image.tobytes())
+        if stamp is not None:
+            source_stamp = stamp                    # headless: the frame answers this input
+        header = self.header("phosphene", stamp)
+        msg = None
+        if stamp is None or self.pub_image.get_subscription_count():   # headless: only when watched
+            image = sim.render(brightness)
+            msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
+            msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
+            msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
+            msg.data = array.array("B", image.tobytes())
         frame = PhospheneFrame(header=header, map_id=map_id, mode=sim.config.mode, overlays=list(sim.config.overlays),
                                temporal=sim.temporal is not None)
         frame.source_stamp = self.header("", source_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())
         frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
         try:
-            self.pub_image.publish(msg)
+            if msg is not None:
+                self.pub_image.publish(msg)
             self.pub_frame.publish(frame)
         except RCLError:
             if self.context.ok():
@@ -415,7 +504,8 @@ class SpvNode(RaspvNode):
     def close(self) -> None:
         self._builder.close()
         self._stop_display.set()
-        self._display_thread.join(timeout=2.0)
+        if self._display_thread.is_alive():
+            self._display_thread.join(timeout=2.0)
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "

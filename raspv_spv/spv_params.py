@@ -10,7 +10,7 @@ from raspv_spv.modes import MODES, OVERLAYS
 
 PARAMS = [
     Param("device", "default", "device preset (default, argus_ii, argus_ii_axon, alpha_ims, prima, orion, ... see "
-          "config/devices) or a device YAML path"),
+          "config/devices) or a device YAML path", file_kind="device"),
     Param("num_phosphenes", 0, "number of phosphenes N (0: the device's)", minimum=0, maximum=20000),
     Param("fov_deg", 0.0, "prosthesis horizontal field of view (0: the device's)", minimum=0.0, maximum=160.0, unit="deg"),
     Param("phosphene_fov_deg", 0.0, "phosphene diameter (0: the device's)", minimum=0.0, maximum=10.0, unit="deg"),
@@ -41,6 +41,8 @@ PARAMS = [
           unit="um"),
     Param("axlambda_um", 0.0, "axon-map decay along the axon (0: the device's)", minimum=0.0, maximum=10000.0,
           unit="um"),
+    Param("headless", False, "no display loop: publish each computed frame at once, stamped with its input, the "
+          "temporal model advancing by the input's elapsed time (scripted subjects, sweeps in sim time)", dynamic=False),
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("output_format", "mono8", "/spv/image encoding: mono8, or green (rgb8, green channel only, for headsets)",
           choices=("mono8", "green")),
@@ -48,4 +50,12 @@ PARAMS = [
     Param("edge_low", 50.0, "Canny lower threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("edge_high", 150.0, "Canny upper threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("chess_tile", 0.5, "checkerboard tile size (chess modes)", minimum=0.05, maximum=5.0, unit="m"),
+    Param("highlight.classes", ["person"], "classes the highlight overlay lights (names or synonyms of the "
+          "segmentation's classes)"),
+    Param("highlight.pick", "all", "highlight every pixel of the classes, or one instance: the largest or the nearest",
+          choices=("all", "largest", "nearest")),
+    Param("highlight.dim", 0.5, "level factor of the phosphenes the highlight overlay does not light", minimum=0.0,
+          maximum=1.0),
+    Param("highlight.max_age", 0.2, "use segmentation labels at most this far from the frame's stamp", minimum=0.0,
+          maximum=5.0, unit="s"),
 ]
