@@ -111,8 +111,8 @@ def _err(action: str, text: str) -> int:
 # -- record -------------------------------------------------------------------------------------
 
 def _record(args: argparse.Namespace) -> int:
-    from raspv_camera.bag_recording import Recording, TopicSelection
-    from raspv_camera.bag_writer import BagWriteError
+    from raspv_bags.recording import Recording, TopicSelection
+    from raspv_bags.writer import BagWriteError
 
     if args.duration is not None and args.duration <= 0:
         return _err("record", f"--duration must be > 0, got {args.duration}")
@@ -179,8 +179,8 @@ class _GraphRecorder:
         self.skipped: set[str] = set()
 
     def discover(self) -> None:
-        from raspv_camera.bag_types import ensure_type
-        from raspv_camera.bag_writer import BagWriteError, QosSpec
+        from raspv_bags.message_types import ensure_type
+        from raspv_bags.writer import BagWriteError, QosSpec
         from raspv_common.ros_introspection import message_class, qos_matching_publishers
         from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
@@ -227,7 +227,7 @@ class _GraphRecorder:
 # -- play ---------------------------------------------------------------------------------------
 
 def _play(args: argparse.Namespace) -> int:
-    from raspv_camera.bag_playback import parse_remap
+    from raspv_bags.playback import parse_remap
 
     if not args.rate > 0:
         return _err("play", f"--rate must be > 0, got {args.rate}")
@@ -266,7 +266,7 @@ def _play(args: argparse.Namespace) -> int:
 # -- info ---------------------------------------------------------------------------------------
 
 def _info(args: argparse.Namespace) -> int:
-    from raspv_camera.bag_reader import BagError, BagReader
+    from raspv_bags.reader import BagError, BagReader
 
     try:
         reader = BagReader(args.bag)
@@ -278,7 +278,7 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def format_info(reader) -> str:
-    """Human summary of an open :class:`~raspv_camera.bag_reader.BagReader`."""
+    """Human summary of an open :class:`~raspv_bags.reader.BagReader`."""
     lines = [f"bag:       {reader.path}",
              f"storage:   {reader.storage}" + ("" if reader.complete else "  (INCOMPLETE: see notes)")]
     if reader.start_ns is not None:
@@ -302,9 +302,9 @@ def format_info(reader) -> str:
 # -- repair -------------------------------------------------------------------------------------
 
 def _repair(args: argparse.Namespace) -> int:
-    from raspv_camera.bag_reader import BagError
-    from raspv_camera.bag_repair import repair_bag
-    from raspv_camera.bag_writer import BagWriteError
+    from raspv_bags.reader import BagError
+    from raspv_bags.repair import repair_bag
+    from raspv_bags.writer import BagWriteError
 
     src = Path(args.bag)
     out = Path(args.output) if args.output else src.with_name((src.stem if src.is_file() else src.name) + "-repaired")
@@ -330,9 +330,9 @@ def _repair(args: argparse.Namespace) -> int:
 # -- from-frames --------------------------------------------------------------------------------
 
 def _from_frames(args: argparse.Namespace) -> int:
-    from raspv_camera.bag_from_frames import (CAMERA_PRESETS, FramesError, discover_frames, load_intrinsics_file,
+    from raspv_bags.from_frames import (CAMERA_PRESETS, FramesError, discover_frames, load_intrinsics_file,
                                               write_frames_bag)
-    from raspv_camera.bag_writer import BagWriteError
+    from raspv_bags.writer import BagWriteError
 
     given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
     try:

@@ -11,9 +11,15 @@ BENCHES: dict[str, str] = {
     "sim": "raspv_sim.bench",
     "scene": "raspv_perception.bench",
     "spv": "raspv_spv.bench",
-    "bag": "raspv_camera.bag_bench",
+    "bag": "raspv_bags.bench",
+    "camera": "raspv_camera.bench",
     "hmd": "raspv_hmd.bench",
     "e2e": "raspv_hmd.e2e_bench",
+    "seg": "raspv_perception.segmentation_bench",
+    "nav": "raspv_nav.bench",
+    "restart": "raspv_bringup.restart_bench",
+    "budget": "raspv_spv.budget_bench",
+    "soak": "raspv_bringup.soak_bench",
 }
 
 

@@ -24,7 +24,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "hmd-client": ("raspv_hmd.client_cli", "reference headset client: receive frames, send head motion, measure latency"),
     "teleop": ("raspv_bringup.teleop_cli", "drive the avatar and turn its head from this terminal"),
     "bag": ("raspv_bringup.bag_cli", "record, play, inspect and repair bags; build one from RGB-D image files"),
+    "experiment": ("raspv_experiments.experiment_cli", "experiments: protocols, sessions with subjects, sweeps, reports"),
     "render": ("raspv_bringup.render_cli", "render a bag into a phosphene video (mp4) and/or PNG frames, offline"),
+    "camera": ("raspv_camera.camera_cli", "real RGB-D cameras: list connected devices, show modes, import recordings"),
 }
 
 

@@ -7,6 +7,7 @@ launch:
     - kind: sim                  # node kind, see `raspv nodes`
       name: sim                  # optional, node name (default: the kind)
       restart: false             # optional, restart it when it dies instead of stopping the graph
+      spare: true                # optional (default: as restart), keep a warm spare process for restarts
     - kind: spv
 sim:
   ros__parameters: {world: apartment}
@@ -27,12 +28,14 @@ from typing import Any
 
 import yaml
 
+from raspv_bringup.file_kinds import check_files as check_named_files
 from raspv_bringup.registry import NODES, schema_for
+from raspv_common.text_files import read_yaml_file
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO_ROOT / "config"
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-_NODE_KEYS = {"kind", "name", "restart", "env"}
+_NODE_KEYS = {"kind", "name", "restart", "spare", "env"}
 GLOBAL_PARAMS = {"use_sim_time": False}  # accepted for every node (ROS built-in)
 
 
@@ -51,6 +54,7 @@ class NodeEntry:
     restart: bool
     params: dict[str, Any]
     env: dict[str, str] = field(default_factory=dict)
+    spare: bool = False        # keep a warm spare process to restart from (raspv_bringup/warm_spare.py)
 
     @property
     def module(self) -> str:
@@ -75,13 +79,6 @@ def resolve_graph_path(name: str) -> Path:
     return CONFIG_DIR / f"{name}.yaml"
 
 
-def _yaml_error(path: Path, exc: yaml.YAMLError) -> str:
-    mark = getattr(exc, "problem_mark", None)
-    where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-    return f"{path}: {where}invalid YAML ({problem})"
-
-
 def parse_override(text: str) -> tuple[str, str, Any]:
     """``node.param:=value`` (value parsed as YAML) → (node, param, value)."""
     if ":=" not in text or "." not in text.split(":=", 1)[0]:
@@ -95,19 +92,26 @@ def parse_override(text: str) -> tuple[str, str, Any]:
     return node, param, value
 
 
-def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
-    """Read and validate a graph file; raise :class:`GraphError` listing every mistake."""
+def load_graph(path: str | Path, overrides: list[str] | None = None, check_files: bool = True) -> Graph:
+    """Read and validate a graph file; raise :class:`GraphError` listing every mistake.
+    With ``check_files``, every file a parameter names (worlds and their meshes, devices,
+    maps, bags, …; see :mod:`raspv_bringup.file_kinds`) is checked too."""
     path = Path(path)
     if not path.is_file():
         raise GraphError([f"{path}: no such graph file" + (" (it is a directory)" if path.is_dir() else "")])
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise GraphError([_yaml_error(path, exc)]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise GraphError([f"{path}: cannot read ({exc})"]) from None
+    doc = read_yaml_file(path, "graph file", lambda message: GraphError([message]), str(path))
+    return graph_from_doc(doc, path, overrides, check_files=check_files)
+
+
+def graph_from_doc(doc: Any, path: str | Path, overrides: list[str] | None = None, where: str = "",
+                   check_files: bool = True) -> Graph:
+    """Validate a graph already read from YAML (e.g. the ``graph:`` section of an experiment
+    protocol); ``where`` prefixes the keys in messages (``"graph."``)."""
+    path = Path(path)
     if not isinstance(doc, dict):
-        raise GraphError([f"{path}: expected a mapping with a 'launch' section and node parameter sections"])
+        raise GraphError([f"{path}: {where or ''}expected a mapping with a 'launch' section and node parameter sections"])
+    if where:
+        return _prefixed(doc, path, overrides, where, check_files)
     errors: list[str] = []
     launch = doc.get("launch")
     if not isinstance(launch, dict) or not isinstance(launch.get("nodes"), list) or not launch["nodes"]:
@@ -144,7 +148,12 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
         if not isinstance(restart, bool):
             errors.append(f"{where}.restart: expected true or false, got {restart!r}")
             restart = False
-        nodes.append(NodeEntry(kind, name, restart, {}, _string_map(item.get("env", {}), f"{where}.env", errors)))
+        spare = item.get("spare", restart)
+        if not isinstance(spare, bool):
+            errors.append(f"{where}.spare: expected true or false, got {spare!r}")
+            spare = False
+        nodes.append(NodeEntry(kind, name, restart, {}, _string_map(item.get("env", {}), f"{where}.env", errors),
+                               spare=spare and restart))
 
     by_name = {n.name: n for n in nodes}
     sections: dict[str, dict[str, Any]] = {}
@@ -176,6 +185,7 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
             continue
         sections.setdefault(node, {})[param] = value
 
+    checked: dict[tuple, str | None] = {}               # file checks by (kind, value), done once
     for node in nodes:
         schema = schema_for(node.kind)
         for gk, gv in global_params.items():
@@ -188,6 +198,9 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
         good, bad = schema.validate(values)
         for key, message in bad:
             errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
+        if check_files:
+            for key, message in check_named_files(schema, {**node.params, **good}, checked):
+                errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
         for k, v in builtin.items():
             if not isinstance(v, bool):
                 errors.append(f"{path}: {node.name}.ros__parameters.{k}: expected true or false, got {v!r}")
@@ -199,6 +212,15 @@ def load_graph(path: str | Path, overrides: list[str] | None = None) -> Graph:
     if errors:
         raise GraphError(errors)
     return Graph(path=path, nodes=nodes, env=env)
+
+
+def _prefixed(doc: dict, path: Path, overrides: list[str] | None, where: str, check_files: bool) -> Graph:
+    """graph_from_doc with every message's key prefixed by ``where``."""
+    try:
+        return graph_from_doc(doc, path, overrides, check_files=check_files)
+    except GraphError as exc:
+        head = f"{path}: "
+        raise GraphError([head + where + e[len(head):] if e.startswith(head) else e for e in exc.errors]) from None
 
 
 def _string_map(value: Any, where: str, errors: list[str]) -> dict[str, str]:

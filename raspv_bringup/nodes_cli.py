@@ -21,5 +21,6 @@ def run(args: argparse.Namespace) -> int:
     for p in schema_for(args.kind):
         unit = f" [{p.unit}]" if p.unit else ""
         flag = "" if p.dynamic else " (fixed at start)"
-        print(f"{p.name:<24} = {p.default!r:<14} {p.description}{unit}; {p.allowed()}{flag}")
+        names = f"; names a {p.file_kind} file, checked before start" if p.file_kind else ""
+        print(f"{p.name:<24} = {p.default!r:<14} {p.description}{unit}; {p.allowed()}{names}{flag}")
     return 0

@@ -28,9 +28,13 @@ NODES: dict[str, NodeSpec] = {
     "spv": NodeSpec("raspv_spv.spv_node", "raspv_spv.spv_params:PARAMS", "phosphene simulator: representation mode, temporal model, phosphene image"),
     "scene": NodeSpec("raspv_perception.scene_node", "raspv_perception.scene_params:PARAMS", "scene perception from depth: floor and gravity frame, planes, obstacles, free floor, per-pixel classes"),
     "stairs": NodeSpec("raspv_perception.stairs_node", "raspv_perception.stairs_params:PARAMS", "staircase detection from depth and the scene's floor: /stairs with pose, riser, tread, width and every step"),
+    "segmentation": NodeSpec("raspv_perception.segmentation_node", "raspv_perception.segmentation_params:PARAMS", "semantic segmentation: person model with depth fusion, your ONNX/TorchScript model, or the sim's ground truth"),
     "odometry": NodeSpec("raspv_perception.odometry_node", "raspv_perception.odometry_params:PARAMS", "RGB-D odometry publishing /camera/pose for sources without a pose"),
     "bridge": NodeSpec("raspv_hmd.bridge_node", "raspv_hmd.bridge_params:PARAMS", "headset bridge: streams /spv/image to browser/native clients, publishes their head pose and teleop"),
     "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
+    "subject": NodeSpec("raspv_experiments.subject_node", "raspv_experiments.subject_params:PARAMS",
+                        "scripted subject: sees /spv/frame and /spv/map only, drives /cmd_vel (experiments, sweeps)"),
+    "camera": NodeSpec("raspv_camera.camera_node", "raspv_camera.camera_params:PARAMS", "a real RGB-D camera (RealSense, OpenNI2, DepthAI) or its SDK's recording: colour, registered depth, camera info, IMU"),
     "replay": NodeSpec("raspv_camera.replay_node", "raspv_camera.replay_params:PARAMS", "a recorded bag as the source: original timing, rate, loop, remapping, /clock"),
 }
 

@@ -1,6 +1,6 @@
 """`raspv render BAG -o out.mp4`: a bag → phosphene video (and/or PNG frames), offline.
 
-Runs the phosphene simulator of the ``spv`` node (:mod:`raspv_camera.bag_render`) as fast as
+Runs the phosphene simulator of the ``spv`` node (:mod:`raspv_bags.render`) as fast as
 the machine allows, with a progress bar.
 """
 from __future__ import annotations
@@ -104,9 +104,9 @@ def _bar(done: float, total: float, started: float, width: int = 30) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from raspv_camera.bag_from_frames import FramesError, load_intrinsics_file
-    from raspv_camera.bag_reader import BagError
-    from raspv_camera.bag_render import RenderError, RenderSettings, render_bag
+    from raspv_bags.from_frames import FramesError, load_intrinsics_file
+    from raspv_bags.reader import BagError
+    from raspv_bags.render import RenderError, RenderSettings, render_bag
 
     def fail(text: str) -> int:
         print(f"raspv render: {text}", file=sys.stderr)

@@ -69,8 +69,10 @@ class RunningGraph:
         self.log_path = workdir / (path.stem + ".log")
         self._log = open(self.log_path, "w")
         cmd = [sys.executable, "-m", "raspv_bringup.cli", "launch", str(path), *(overrides or [])]
+        # node logs (the launcher's and rcl's) stay with the test's files, not in ~/.ros/log
+        full_env = {**os.environ, "ROS_LOG_DIR": str(workdir / "ros_log"), **(env or {})}
         self.proc = subprocess.Popen(cmd, stdout=self._log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                     env={**os.environ, **(env or {})}, start_new_session=True)
+                                     env=full_env, start_new_session=True)
         self._children: set[int] = set()
         self.returncode: int | None = None
 

@@ -2,8 +2,8 @@
 
 Publishes the bag's messages — serialised bytes unchanged — on their topics (after remapping)
 with their original timing, using the same QoS classes as the live graph
-(:func:`raspv_camera.bag_playback.publisher_qos`), and the bag's time on ``/clock``. The
-playback itself is :class:`raspv_camera.bag_playback.Player`, run in a thread; the executor
+(:func:`raspv_bags.playback.publisher_qos`), and the bag's time on ``/clock``. The
+playback itself is :class:`raspv_bags.playback.Player`, run in a thread; the executor
 keeps serving parameters (``rate``, ``paused``, ``loop`` change while playing). At the end
 (or on shutdown) it logs the messages sent and the timing error (p50/p95/max).
 """
@@ -16,8 +16,8 @@ import time
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from raspv_camera.bag_playback import PlaybackOptions, PlaybackReport, Player, parse_remap, publisher_qos
-from raspv_camera.bag_reader import BagError
+from raspv_bags.playback import PlaybackOptions, PlaybackReport, Player, parse_remap, publisher_qos
+from raspv_bags.reader import BagError
 from raspv_camera.replay_params import PARAMS
 from raspv_common import topics
 from raspv_common.node import ConfigurationError, RaspvNode, run_node

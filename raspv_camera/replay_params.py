@@ -2,7 +2,8 @@
 from raspv_common.params import Param
 
 PARAMS = [
-    Param("bag", "", "bag to play: a directory (metadata.yaml + .mcap/.db3) or a .mcap/.db3 file", dynamic=False),
+    Param("bag", "", "bag to play: a directory (metadata.yaml + .mcap/.db3) or a .mcap/.db3 file", dynamic=False,
+          file_kind="bag"),
     Param("rate", 1.0, "playback speed factor (2.0: twice as fast)", minimum=0.01, maximum=100.0),
     Param("start_offset", 0.0, "start this far into the bag", minimum=0.0, maximum=1e6, dynamic=False, unit="s"),
     Param("loop", False, "start again from the beginning at the end of the bag"),

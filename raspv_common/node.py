@@ -26,6 +26,7 @@ from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrins
                                       seconds_to_stamp)
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.params import Param, ParamSchema
+from raspv_common.startup_timing import startup_mark
 
 
 class ConfigurationError(Exception):
@@ -67,6 +68,7 @@ class RaspvNode(Node):
         self._schema = ParamSchema.of(params)
         self._throttle: dict[str, float] = {}
         self.intrinsics: CameraIntrinsics | None = None   # kept by on_camera_info
+        self.exit_code = 0     # set before shutting the context down to make the process exit non-zero
         for p in self._schema:
             default = list(p.default) if isinstance(p.default, tuple) else p.default
             descriptor = _descriptor(p)
@@ -160,13 +162,16 @@ class RaspvNode(Node):
 
 def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None = None,
              threads: int = 1) -> None:
-    """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error."""
+    """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error,
+    or the node's ``exit_code`` when it shut itself down with one."""
     args = list(sys.argv if argv is None else argv)
     rclpy.init(args=args)
+    startup_mark("rclpy initialised")
     node = None
     code = 0
     try:
         node = node_factory()
+        startup_mark("node built")
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
@@ -185,6 +190,7 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
             raise
     finally:
         if node is not None:
+            code = code or node.exit_code
             try:
                 node.close()
             finally:

@@ -20,7 +20,9 @@ class Param:
 
     ``default`` fixes the type (bool, int, float, str, or a list of one of those). ``minimum`` and
     ``maximum`` bound numbers (inclusive); ``choices`` restricts values to a set. ``dynamic``
-    says whether it may change while the node runs (``raspv param set``).
+    says whether it may change while the node runs (``raspv param set``). ``file_kind`` says
+    the value names a file of that kind (``raspv_bringup/file_kinds.py``: world, device, map,
+    bag, …), checked before a graph starts.
     """
 
     name: str
@@ -31,6 +33,7 @@ class Param:
     choices: Sequence[Any] | None = None
     dynamic: bool = True
     unit: str = ""
+    file_kind: str = ""
 
     @property
     def kind(self) -> type:

@@ -5,25 +5,31 @@ controlling client's head as ``/head/orientation`` (QuaternionStamped, frame ``b
 relative to the base, identity looks ahead) and its teleop as ``/cmd_vel`` (Twist, clamped to
 ``max_linear``/``max_angular``; one zero twist after ``deadman_timeout`` without input); turns
 the viewer keys (raspv_hmd/keymap.py) and direct parameter requests into parameter changes of
-the ``spv`` node and tells the client the result. Prints the client URL at start-up.
+the ``spv`` node and tells the client the result. Experiments: shows ``/experiment/instructions``
+in the clients and publishes the subject's start/abort on ``/experiment/response``. Prints the
+client URL at start-up.
 """
 from __future__ import annotations
 
 import collections
 import dataclasses
+import json
 import threading
 import time
 from typing import Any, Callable
 
 from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist
 from sensor_msgs.msg import Image
+from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
-from raspv_common.qos import COMMAND_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_hmd.audio_cues import CueSettings
 from raspv_hmd.bridge_params import PARAMS
+from raspv_hmd.cue_relay import CueRelay
 from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig, ServerError
 from raspv_spv.device import DeviceError, load_device
@@ -60,13 +66,18 @@ class BridgeNode(RaspvNode):
         self.request_guard = self.create_guard_condition(self._next_request)
         self.create_timer(0.1, self._check_requests)
         callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
-                              on_param=self.on_param, on_event=lambda text: self.get_logger().info(text))
+                              on_param=self.on_param, on_event=lambda text: self.get_logger().info(text),
+                              on_experiment=self.on_experiment)
         try:
             self.server = HeadsetServer(config, callbacks).start()
         except (ServerError, ValueError) as exc:
             raise ConfigurationError(str(exc)) from None
         self.frames = 0
         self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
+        self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
+        self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
+        if p["audio_cues"]:      # navigation guidance and stairs → spatial audio in the clients
+            self.cues = CueRelay(self, self.server, CueSettings(enabled=tuple(p["audio_cues"])))
         for page, tcp in self.server.endpoints():
             native = f"; native clients: {tcp}" if tcp else ""
             print(f"headset client: open {page} in a browser{native}", flush=True)
@@ -86,6 +97,21 @@ class BridgeNode(RaspvNode):
         stamp = stamp_to_seconds(msg.header.stamp) or time.time()
         self.server.submit_frame(image, stamp)
         self.frames += 1
+
+    # -- experiments ----------------------------------------------------------------------------
+    def on_instructions(self, msg: String) -> None:
+        try:
+            info = json.loads(msg.data)
+        except json.JSONDecodeError:
+            self.warn_throttled("instructions", f"ignoring {topics.EXPERIMENT_INSTRUCTIONS}: not JSON")
+            return
+        if isinstance(info, dict):
+            self.server.show_instructions({k: info.get(k) for k in ("id", "title", "text", "waiting")})
+
+    def on_experiment(self, client: int, action: str, instructions_id: str) -> None:
+        self.pub_response.publish(String(data=json.dumps({"action": action, "id": instructions_id,
+                                                          "by": f"client {client}"})))
+        self.get_logger().info(f"client {client}: experiment {action}")
 
     # -- from the controlling client (server thread) ----------------------------------------------
     def on_head(self, q: tuple[float, float, float, float], _client_time: float | None) -> None:

@@ -21,6 +21,10 @@ PARAMS = [
     Param("max_clients", 16, "clients served at once", minimum=1, maximum=256, dynamic=False),
     Param("max_refused", 20, "refused messages after which a client is dropped", minimum=1, maximum=10000,
           dynamic=False),
-    Param("tls_cert", "", "PEM certificate: serve https/wss (WebXR needs it off localhost)", dynamic=False),
-    Param("tls_key", "", "PEM private key of tls_cert", dynamic=False),
+    Param("tls_cert", "", "PEM certificate: serve https/wss (WebXR needs it off localhost)", dynamic=False,
+          file_kind="pem"),
+    Param("tls_key", "", "PEM private key of tls_cert", dynamic=False, file_kind="pem"),
+    Param("audio_cues", ["waypoint", "obstacle", "stairs"], "spatial audio cues sent to the clients (from "
+          "/nav/guidance and /stairs; empty: none); each client switches them on with 'm'",
+          choices=("waypoint", "obstacle", "stairs"), dynamic=False),
 ]

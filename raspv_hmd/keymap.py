@@ -14,6 +14,9 @@ key        change                                          spv parameter
 ``.``      grid rectangular ↔ hexagonal                    ``grid``
 ``,``      field rectangular ↔ circular                    ``field``
 ``1``–``9``  the n-th representation mode of ``modes``     ``mode``
+``t T``    highlight the next / previous class of          ``highlight.classes``
+           ``HIGHLIGHT_CLASSES``
+``y``      highlight overlay on / off                      ``overlays``
 =========  ==============================================  =========================
 
 The bridge reads the current values it needs, computes the new one here, and sets it; the spv
@@ -78,6 +81,11 @@ DEVICE_SENTINELS: dict[str, Any] = {"num_phosphenes": 0, "fov_deg": 0.0, "phosph
                                     "num_levels": 0, "grid": "", "field": "", "dropout": -1.0, "noise_px": -1.0}
 DEPTH_KEYS = {"j": -1, "J": +1}          # chess tile ±0.25 m or max depth ±0.5 m
 MODE_KEYS = "123456789"
+# What t / T cycle through: the things a subject is asked to find in the shipped worlds (ADE20K
+# names or synonyms, so they also work with an ADE20K or COCO-Stuff model).
+HIGHLIGHT_CLASSES = ("person", "laptop", "bin", "door", "chair", "table")
+HIGHLIGHT_KEYS = {"t": +1, "T": -1}
+OVERLAY_TOGGLE_KEY = "y"
 
 
 def is_chess_mode(mode: Any) -> bool:
@@ -103,6 +111,10 @@ def parameters_needed(key: str) -> list[str]:
         return ["mode", "chess_tile", "max_depth"]
     if key in MODE_KEYS:
         return []
+    if key in HIGHLIGHT_KEYS:
+        return ["highlight.classes"]
+    if key == OVERLAY_TOGGLE_KEY:
+        return ["overlays"]
     raise KeyError(key)
 
 
@@ -142,4 +154,14 @@ def key_change(key: str, current: Mapping[str, Any], modes: Sequence[str],
         if i >= len(modes):
             raise ValueError(f"key {key}: only {len(modes)} modes ({', '.join(modes)})")
         return KeyChange("mode", modes[i], f"mode {modes[i]}")
+    if key in HIGHLIGHT_KEYS:
+        old = list(value("highlight.classes"))
+        cycle = HIGHLIGHT_CLASSES
+        i = cycle.index(old[0]) + HIGHLIGHT_KEYS[key] if old and old[0] in cycle else 0
+        new = [cycle[i % len(cycle)]]
+        return KeyChange("highlight.classes", new, f"highlight {new[0]}")
+    if key == OVERLAY_TOGGLE_KEY:
+        old = list(value("overlays"))
+        new = [o for o in old if o != "highlight"] if "highlight" in old else old + ["highlight"]
+        return KeyChange("overlays", new, f"highlight {'on' if 'highlight' in new else 'off'}")
     raise KeyError(key)

@@ -100,8 +100,17 @@ class Control:
     want: bool
 
 
-ClientMessage = Hello | Head | Twist | Key | SetParam | Ack | Ping | Control
-CONTROL_MESSAGES = (Head, Twist, Key, SetParam)   # only the controlling client may send these
+@dataclass(frozen=True)
+class Experiment:
+    """The subject's answer to experiment instructions: "start" the trial or "abort" it."""
+
+    action: str
+    id: str = ""                   # the instructions' id it answers
+
+
+EXPERIMENT_ACTIONS = ("start", "abort")
+ClientMessage = Hello | Head | Twist | Key | SetParam | Ack | Ping | Control | Experiment
+CONTROL_MESSAGES = (Head, Twist, Key, SetParam, Experiment)   # only the controlling client may send these
 
 
 def _number(obj: dict, field: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -212,6 +221,8 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
         if not isinstance(want, bool):
             raise ProtocolError("bad_field", f"'want' must be true or false, got {want!r}")
         return Control(want)
+    if kind == "experiment":
+        return Experiment(_string(obj, "action", choices=EXPERIMENT_ACTIONS), _string(obj, "id", ""))
     if kind == "hello":
         version = obj.get("protocol", PROTOCOL_VERSION)
         if version != PROTOCOL_VERSION:

@@ -42,10 +42,13 @@ from raspv_hmd.control import ControlArbiter, DeadMan
 from raspv_hmd.frame_encoding import OutgoingFrame
 
 HARD_MESSAGE_LIMIT = 65536          # bytes; a client sending more than this in one message is dropped
+CLOSE_TIMEOUT_S = 1.0               # wait this long for a client's closing handshake, then close the socket
+BYE_TIMEOUT_S = 0.5                 # a bye that cannot be written by then (client not reading) is given up
 WS_PATH = "/ws"
 STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
                 "/index.html": ("index.html", "text/html; charset=utf-8"),
                 "/client.js": ("client.js", "text/javascript; charset=utf-8"),
+                "/audio_cues.js": ("audio_cues.js", "text/javascript; charset=utf-8"),
                 "/style.css": ("style.css", "text/css; charset=utf-8")}
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "
@@ -124,6 +127,7 @@ class Callbacks:
     on_key: Callable[[int, str], None] = _noop                  # (client id, key)
     on_param: Callable[[int, str, Any], None] = _noop           # (client id, name, value)
     on_event: Callable[[str], None] = _noop                     # connection events, for the log
+    on_experiment: Callable[[int, str, str], None] = _noop      # (client id, "start"/"abort", instructions id)
 
 
 @dataclass
@@ -221,11 +225,11 @@ class _TcpLink:
         return payload
 
     async def close(self) -> None:
-        self.writer.close()
+        self.writer.close()                 # flushes what is buffered, then closes
         try:
-            await asyncio.wait_for(self.writer.wait_closed(), 2.0)
+            await asyncio.wait_for(self.writer.wait_closed(), CLOSE_TIMEOUT_S)
         except (OSError, asyncio.TimeoutError):
-            pass
+            self.writer.transport.abort()   # the client does not read: do not linger
 
 
 class _Session:
@@ -250,6 +254,10 @@ class _Session:
         self.ack_rtts: collections.deque[float] = collections.deque(maxlen=200)
         self.frame_ready = asyncio.Event()
         self.acked = asyncio.Event()
+        self.wants_control = hello.role == "control"
+        self.last_active = time.monotonic()          # last head/twist/key/param message (or the hello)
+        self.evicted: str | None = None              # why the server made room with this client
+        self.task: asyncio.Task | None = None
         self.tokens = max_rate
         self.max_rate = max_rate
         self.last_refill = time.monotonic()
@@ -289,6 +297,7 @@ class HeadsetServer:
         self._deadman = DeadMan(self.config.deadman_s)
         self._deadman_timer: asyncio.TimerHandle | None = None
         self._latest: OutgoingFrame | None = None
+        self._instructions = ""                  # the latest experiment instructions (JSON text)
         self._seq = 0
         self._seq_lock = threading.Lock()
         self._png_clients = 0
@@ -365,7 +374,7 @@ class HeadsetServer:
             ws_server = await serve(self._ws_handler, cfg.host, cfg.port, process_request=self._process_request,
                                     compression=None, max_size=HARD_MESSAGE_LIMIT, max_queue=8,
                                     ssl=self._ssl, server_header=None, ping_interval=10, ping_timeout=10,
-                                    open_timeout=cfg.hello_timeout_s)
+                                    open_timeout=cfg.hello_timeout_s, close_timeout=CLOSE_TIMEOUT_S)
             tcp_server = None
             if cfg.tcp_port is not None:
                 try:
@@ -445,7 +454,20 @@ class HeadsetServer:
 
     def notify(self, text: str, ok: bool = True, client: int | None = None) -> None:
         """Send a status line to one client (by id) or to all (``None``)."""
-        msg = P.server_message("status", text=text, ok=ok)
+        self._send(P.server_message("status", text=text, ok=ok), client)
+
+    def show_instructions(self, info: dict[str, Any] | None) -> None:
+        """Experiment instructions for every client (and clients that connect later), or None
+        to hide them: ``{"id", "title", "text", "waiting"}`` (waiting: a start is expected)."""
+        self._instructions = P.server_message("instructions", **(info or {"id": "", "text": "", "waiting": False}))
+        self._send(self._instructions)
+
+    def broadcast(self, kind: str, **fields: Any) -> None:
+        """Send a JSON message of type ``kind`` to every client (e.g. the audio ``cues``)."""
+        self._send(P.server_message(kind, **fields))
+
+    def _send(self, msg: Any, client: int | None = None) -> None:
+        """Queue ``msg`` on the server loop for one client (by id) or for all (``None``)."""
         loop = self._loop
         if loop is None:
             return
@@ -564,6 +586,7 @@ class HeadsetServer:
         cid, self._next_id = self._next_id, self._next_id + 1
         s = _Session(cid, link, peer_text, not is_loopback(peer_host), hello, self.config.compression,
                      self.config.max_rate)
+        s.task = asyncio.current_task()
         self._sessions[cid] = s
         self._connections += 1
         self._png_clients += s.format == P.FORMAT_PNG
@@ -578,6 +601,8 @@ class HeadsetServer:
                     f"{P.FORMAT_NAMES[s.format]} frames)")
         if changed:
             await self._announce_roles()
+        if self._instructions:
+            await self._say(s, self._instructions)
         if self._latest is not None:
             s.frame_ready.set()
         sender = asyncio.create_task(self._sender(s))
@@ -590,9 +615,17 @@ class HeadsetServer:
                 self._refused_total += 1
             reason = f"dropped: {exc}"
             self._dropped[exc.code] += 1
+            if exc.code != "abuse":              # abuse: _refuse said bye already
+                await self._send_bye(link, f"dropped: {exc}")
         except (ConnectionError, ConnectionClosed):
             reason = "connection lost"
+        except asyncio.CancelledError:
+            if s.evicted is None:
+                raise
+            reason = s.evicted
         finally:
+            if s.evicted is not None:
+                reason = s.evicted
             sender.cancel()
             try:
                 await sender
@@ -600,7 +633,7 @@ class HeadsetServer:
                 pass
             except Exception as exc:  # noqa: BLE001 - a failed send ends only this client
                 reason = f"send failed: {exc!r}"
-            del self._sessions[cid]
+            self._sessions.pop(cid, None)
             self._png_clients -= s.format == P.FORMAT_PNG
             was_controller = self._arbiter.controller == cid
             changed = self._arbiter.remove(cid)
@@ -616,9 +649,9 @@ class HeadsetServer:
         try:
             first = await asyncio.wait_for(link.recv(), self.config.hello_timeout_s)
         except asyncio.TimeoutError:
-            return await self._reject("hello_timeout", peer, f"no hello within {self.config.hello_timeout_s:g} s")
+            return await self._reject("hello_timeout", peer, f"no hello within {self.config.hello_timeout_s:g} s", link)
         except (_Drop, P.ProtocolError) as exc:
-            return await self._reject(getattr(exc, "code", "bad_hello"), peer, str(exc))
+            return await self._reject(getattr(exc, "code", "bad_hello"), peer, str(exc), link)
         except (ConnectionError, ConnectionClosed):
             return None
         if first is None:
@@ -633,9 +666,34 @@ class HeadsetServer:
             given = hello.token or url_token
             if not hmac.compare_digest(given.encode(), self.token.encode()):
                 return await self._reject("token", peer, "wrong or missing token", link)
-        if len(self._sessions) >= self.config.max_clients:
+        if len(self._sessions) >= self.config.max_clients and not await self._make_room(hello, peer):
             return await self._reject("full", peer, f"the server is full ({self.config.max_clients} clients)", link)
         return hello
+
+    async def _make_room(self, hello: P.Hello, peer: str) -> bool:
+        """A client that wants control always gets a slot: evict a client that does not control,
+        watchers first, then the one that sent a control message least recently (pinging does
+        not count). A watcher evicts nobody. True when a slot is free now."""
+        if hello.role != "control":
+            return False
+        ctl = self._arbiter.controller
+        candidates = [s for s in self._sessions.values() if s.id != ctl and s.evicted is None]
+        if not candidates:
+            return False
+        victim = min(candidates, key=lambda s: (s.wants_control, s.last_active, s.id))
+        why = (f"evicted: the server was full ({self.config.max_clients} clients) and a client that wants "
+               f"control ({hello.name or peer}) needed a slot")
+        victim.evicted = why
+        self._dropped["evicted"] += 1
+        self._event(f"client {victim.id} '{victim.name}' {why}")
+        await self._send_bye(victim.link, why)
+        await victim.link.close()
+        if victim.task is not None:        # its own loop removes it from the sessions
+            done, _ = await asyncio.wait({victim.task}, timeout=CLOSE_TIMEOUT_S + 1.0)
+            if not done:
+                victim.task.cancel()
+        self._sessions.pop(victim.id, None)
+        return len(self._sessions) < self.config.max_clients
 
     async def _reject(self, code: str, peer: str, why: str, link: _Link | None = None) -> None:
         """Count and log a refused connection, telling the client why when it can still listen."""
@@ -647,7 +705,7 @@ class HeadsetServer:
 
     async def _send_bye(self, link: _Link, reason: str) -> None:
         try:
-            await asyncio.wait_for(link.send_text(P.server_message("bye", reason=reason)), 2.0)
+            await asyncio.wait_for(link.send_text(P.server_message("bye", reason=reason)), BYE_TIMEOUT_S)
         except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
             pass
 
@@ -678,7 +736,7 @@ class HeadsetServer:
         self._refused_total += 1
         total = sum(s.refused.values())
         if total >= self.config.max_refused:
-            await self._say(s, P.server_message("bye", reason=f"{total} refused messages; last: {exc}"))
+            await self._send_bye(s.link, f"{total} refused messages; last: {exc}")
             raise _Drop("abuse", f"{total} refused messages (last: {exc.code}: {exc})")
         if s.refused[exc.code] <= 3 or total % 10 == 0:       # do not echo a flood back
             await self._say(s, P.server_message("refused", code=exc.code, reason=str(exc), count=total))
@@ -698,6 +756,7 @@ class HeadsetServer:
             s.acked.set()
             return
         if isinstance(msg, P.Control):
+            s.wants_control = msg.want
             if self._arbiter.set_want(s.id, msg.want):
                 if self._deadman.release():
                     self._call(self.callbacks.on_cmd_vel, 0.0, 0.0)
@@ -705,6 +764,7 @@ class HeadsetServer:
             return
         if isinstance(msg, P.Hello):
             raise P.ProtocolError("bad_field", "hello was already received")
+        s.last_active = time.monotonic()
         if self._arbiter.controller != s.id:
             s.ignored += 1
             if s.ignored == 1:
@@ -721,6 +781,8 @@ class HeadsetServer:
             self._call(self.callbacks.on_key, s.id, msg.key)
         elif isinstance(msg, P.SetParam):
             self._call(self.callbacks.on_param, s.id, msg.name, msg.value)
+        elif isinstance(msg, P.Experiment):
+            self._call(self.callbacks.on_experiment, s.id, msg.action, msg.id)
 
     # -- helpers --------------------------------------------------------------------------------
     def _arm_deadman(self) -> None:

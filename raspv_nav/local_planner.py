@@ -1,52 +1,61 @@
-"""Local planning: obstacles from depth and the Dynamic Window Approach (Fox et al. 1997), no rclpy.
+"""Local planning: the Dynamic Window Approach (Fox, Burgard & Thrun 1997), no rclpy.
 
-``obstacle_points`` turns a depth frame into obstacle positions on the floor (world x, y)
-from the points between ``min_height`` and ``max_height`` above the floor. ``DWAPlanner``
-samples (v, w) commands reachable within one control period, rolls each out as a unicycle arc
-(closed form, all at once), discards those that come closer than the robot radius to an
-obstacle, and scores the rest by progress along the global path, clearance and speed — the
-optimal collision-free velocity of the paper's local planner.
+From the subject's pose (x, y, yaw in W) and *measured* velocity (v, w), DWA
+
+1. samples the **dynamic window**: the (v, w) reachable within one ``control_period`` at
+   ``max_accel`` / ``max_turn_accel``, within the speed limits (forward only: a person walking);
+2. rolls each command out as a circular arc (closed form, all at once) for ``horizon`` s and
+   looks up the obstacle clearance along it (the costmap's distance field, or points);
+3. keeps the **admissible** commands, those after which the subject can still brake before the
+   first collision on the arc, holding the command one ``control_period`` first:
+   v²/(2·``max_accel``) + v·period ≤ dist(v, w) and w²/(2·``max_turn_accel``) + |w|·period ≤
+   angle(v, w), where dist is the free arc length before the collision and angle the turn made
+   by then (Fox et al.'s v ≤ √(2·dist·v̇_b) with the reaction time added; commands free over the
+   whole horizon are admissible). A collision is a roll-out point within ``robot_radius`` of an
+   obstacle, or, for a subject already that close, nearer than it is now;
+4. scores them G = α·heading + β·dist + γ·velocity (each in [0, 1]): heading = 1 − |θ|/π with
+   θ the angle from the subject's heading to the target (the point ``lookahead`` m along the
+   global path, which A* keeps in the middle of doors and corridors); dist = the free arc length
+   before a collision, over ``clearance_cap`` (1 for arcs free over the horizon); velocity =
+   v / ``max_speed``; the heading is taken at the pose reached after ``heading_time``
+   s (Fox et al. take it after one interval; a second looks past the dynamic window's tiny arcs
+   without overshooting the target ``lookahead`` m ahead);
+5. returns the best command, or (0, 0) and ``feasible = False`` when none is admissible.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from raspv_common.intrinsics import CameraIntrinsics
+from raspv_nav.costmap import CostmapState
+from raspv_nav.occupancy import OccupancyGrid
 
-
-def obstacle_points(depth: np.ndarray, intrinsics: CameraIntrinsics, world_from_camera: np.ndarray,
-                    min_height: float = 0.10, max_height: float = 1.80, max_range: float = 4.0,
-                    stride: int = 4) -> np.ndarray:
-    """Depth (H, W) metres + pose W ← C → obstacle points (N, 2) on the floor plane of W [m].
-    Every ``stride``-th pixel is used; invalid depth is ignored; floor height is world z = 0."""
-    d = np.asarray(depth, dtype=np.float32)[::stride, ::stride]
-    v, u = np.mgrid[0:depth.shape[0]:stride, 0:depth.shape[1]:stride]
-    ok = np.isfinite(d) & (d > 0) & (d < max_range)
-    rays = intrinsics.rays(u[ok], v[ok]) * d[ok][:, None]
-    pw = rays @ world_from_camera[:3, :3].T + world_from_camera[:3, 3]
-    keep = (pw[:, 2] > min_height) & (pw[:, 2] < max_height)
-    return pw[keep, :2]
+ClearanceFn = Callable[[np.ndarray], np.ndarray]      # (K, 2) W points → (K,) distance to obstacles [m]
 
 
 @dataclass
 class DWAConfig:
     max_speed: float = 0.8          # [m/s] forward only (a person walking)
     max_turn: float = 1.5           # [rad/s]
-    max_accel: float = 1.5          # [m/s²]
+    max_accel: float = 1.5          # [m/s²] also the braking deceleration
     max_turn_accel: float = 4.0     # [rad/s²]
-    control_period: float = 0.1     # [s]
+    control_period: float = 0.1     # [s] the dynamic window spans one period
     horizon: float = 2.0            # [s] roll-out length
+    rollout_step: float = 0.1       # [s] between roll-out samples
     samples_v: int = 9
     samples_w: int = 21
-    robot_radius: float = 0.30      # [m]
-    lookahead: float = 1.5          # [m] target distance along the path
-    weight_progress: float = 1.0
-    weight_clearance: float = 0.4
-    weight_speed: float = 0.2
+    robot_radius: float = 0.30      # [m] a roll-out point nearer an obstacle cell's centre is a
+                                    # collision (the subject's body, 0.25 m, + a 5 cm cell's half diagonal)
+    lookahead: float = 0.8          # [m] target distance along the global path
+    heading_time: float = 0.5       # [s] heading is scored at the pose reached after this
+    clearance_cap: float = 2.0      # [m] free arc lengths beyond this score the same
+    weight_heading: float = 0.7     # α
+    weight_clearance: float = 0.2   # β
+    weight_velocity: float = 0.1    # γ
 
 
 @dataclass
@@ -54,54 +63,102 @@ class DWAResult:
     linear: float                   # [m/s]
     angular: float                  # [rad/s]
     trajectory: np.ndarray          # (T, 2) chosen roll-out in W
-    feasible: bool                  # False: every sampled command collides → stop
+    feasible: bool                  # False: no admissible command → stop
+    target: np.ndarray | None = None  # (2,) the point on the path aimed at, W
+
+
+def grid_clearance(state: CostmapState, grid: OccupancyGrid) -> ClearanceFn:
+    """Clearance lookup in the costmap's distance field (nearest cell; 0 outside the map)."""
+    field = state.clearance
+
+    def lookup(points: np.ndarray) -> np.ndarray:
+        rc = grid.world_to_cell(points)
+        inside = grid.inside(rc)
+        out = np.zeros(len(points))
+        out[inside] = field[rc[inside, 0], rc[inside, 1]]
+        return out
+    return lookup
+
+
+def points_clearance(obstacles: np.ndarray) -> ClearanceFn:
+    """Clearance from a set of obstacle points (M, 2) in W (KD-tree)."""
+    obstacles = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+    tree = cKDTree(obstacles) if len(obstacles) else None
+
+    def lookup(points: np.ndarray) -> np.ndarray:
+        if tree is None:
+            return np.full(len(points), np.inf)
+        return tree.query(points, k=1)[0]
+    return lookup
 
 
 class DWAPlanner:
     def __init__(self, config: DWAConfig | None = None) -> None:
         self.config = config or DWAConfig()
         c = self.config
-        self._t = np.arange(1, int(round(c.horizon / c.control_period)) + 1) * c.control_period
+        self._t = np.arange(1, int(round(c.horizon / c.rollout_step)) + 1) * c.rollout_step
 
     def rollout(self, pose: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """Unicycle arcs from ``pose`` (x, y, yaw) for commands (K,) → points (K, T, 2)."""
+        """Arcs from ``pose`` (x, y, yaw) for commands (K,) → points (K, T, 2)."""
         x, y, th = pose
         t = self._t[None, :]
         v, w = v[:, None], w[:, None]
         small = np.abs(w) < 1e-6
         ws = np.where(small, 1.0, w)
-        dx = np.where(small, v * t * np.cos(th), v / ws * (np.sin(th + w * t) - math.sin(th)))
-        dy = np.where(small, v * t * np.sin(th), -v / ws * (np.cos(th + w * t) - math.cos(th)))
+        dx = np.where(small, v * t * math.cos(th), v / ws * (np.sin(th + w * t) - math.sin(th)))
+        dy = np.where(small, v * t * math.sin(th), -v / ws * (np.cos(th + w * t) - math.cos(th)))
         return np.stack([x + dx, y + dy], axis=-1)
 
-    def command(self, pose, velocity, path: np.ndarray, obstacles: np.ndarray) -> DWAResult:
-        """Best (v, w) from ``pose`` (x, y, yaw) and current ``velocity`` (v, w) towards the
-        global ``path`` (N, 2) avoiding ``obstacles`` (M, 2), all in W."""
+    def window(self, velocity) -> tuple[np.ndarray, np.ndarray]:
+        """The sampled dynamic window around the measured ``velocity`` (v, w): (K,) v and w."""
         c = self.config
-        pose = np.asarray(pose, dtype=float)
-        v0, w0 = velocity
-        vs = np.linspace(max(0.0, v0 - c.max_accel * c.control_period), min(c.max_speed, v0 + c.max_accel * c.control_period), c.samples_v)
-        ws = np.linspace(max(-c.max_turn, w0 - c.max_turn_accel * c.control_period),
-                         min(c.max_turn, w0 + c.max_turn_accel * c.control_period), c.samples_w)
+        v0, w0 = (float(velocity[0]), float(velocity[1]))
+        v0 = min(max(v0, 0.0), c.max_speed)
+        w0 = min(max(w0, -c.max_turn), c.max_turn)
+        dv, dw = c.max_accel * c.control_period, c.max_turn_accel * c.control_period
+        vs = np.linspace(max(0.0, v0 - dv), min(c.max_speed, v0 + dv), c.samples_v)
+        ws = np.linspace(max(-c.max_turn, w0 - dw), min(c.max_turn, w0 + dw), c.samples_w)
         V, W = (a.ravel() for a in np.meshgrid(vs, ws))
+        return V, W
+
+    def command(self, pose, velocity, path: np.ndarray, clearance: ClearanceFn | np.ndarray) -> DWAResult:
+        """Best (v, w) from ``pose`` (x, y, yaw) and measured ``velocity`` (v, w) towards the
+        global ``path`` (N, 2) in W; ``clearance`` is a lookup (see :func:`grid_clearance`) or
+        obstacle points (M, 2)."""
+        c = self.config
+        if not callable(clearance):
+            clearance = points_clearance(clearance)
+        pose = np.asarray(pose, dtype=float)
+        V, W = self.window(velocity)
         traj = self.rollout(pose, V, W)
         K, T, _ = traj.shape
-        if len(obstacles):
-            dist, _ = cKDTree(obstacles).query(traj.reshape(-1, 2), k=1)
-            clearance = dist.reshape(K, T).min(axis=1)
-        else:
-            clearance = np.full(K, np.inf)
-        ok = clearance > c.robot_radius
+        clear = clearance(traj.reshape(-1, 2)).reshape(K, T)
+        # inside the radius already (a wall brushed, a person stepping close): only coming
+        # closer than now counts as a collision, so the subject can always move away
+        radius = min(c.robot_radius, 0.9 * float(clearance(pose[None, :2])[0]))
+        hit = clear <= radius
+        collides = hit.any(axis=1)
+        t_free = self._t[np.argmax(hit, axis=1)] - c.rollout_step      # last sample before the collision
+        dist = np.where(collides, V * t_free, np.inf)         # free arc length [m]
+        angle = np.where(collides, np.abs(W) * t_free, np.inf)
+        # the command is held one control period, then the subject brakes at max_accel
+        reaction = c.control_period
+        admissible = ((V * V / (2.0 * c.max_accel) + V * reaction <= dist + 1e-9)
+                      & (W * W / (2.0 * c.max_turn_accel) + np.abs(W) * reaction <= angle + 1e-9))
         target = lookahead_point(path, pose[:2], c.lookahead)
-        end = traj[:, -1]
-        progress = -np.linalg.norm(end - target, axis=1)
-        score = (c.weight_progress * progress + c.weight_clearance * np.minimum(clearance, 2.0)
-                 + c.weight_speed * V)
-        score[~ok] = -np.inf
+        k = min(max(int(round(c.heading_time / c.rollout_step)), 1), T) - 1
+        yaw_k = pose[2] + W * self._t[k]
+        to_target = np.arctan2(target[1] - traj[:, k, 1], target[0] - traj[:, k, 0])
+        theta = np.abs(np.mod(to_target - yaw_k + math.pi, 2 * math.pi) - math.pi)
+        heading = 1.0 - theta / math.pi
+        free = np.minimum(dist, c.clearance_cap) / c.clearance_cap
+        velocity_score = V / c.max_speed
+        score = c.weight_heading * heading + c.weight_clearance * free + c.weight_velocity * velocity_score
+        score[~admissible] = -np.inf
         best = int(np.argmax(score))
         if not np.isfinite(score[best]):
-            return DWAResult(0.0, 0.0, traj[0, :1], False)
-        return DWAResult(float(V[best]), float(W[best]), traj[best], True)
+            return DWAResult(0.0, 0.0, traj[0, :1], False, target)
+        return DWAResult(float(V[best]), float(W[best]), traj[best], True, target)
 
 
 def lookahead_point(path: np.ndarray, position: np.ndarray, distance: float) -> np.ndarray:

@@ -13,6 +13,8 @@ import cv2
 import numpy as np
 import yaml
 
+from raspv_common.text_files import read_yaml_file
+
 FREE, OCCUPIED, UNKNOWN = 0, 100, -1
 
 
@@ -62,19 +64,14 @@ class OccupancyGrid:
 def load_map(yaml_path: str | Path) -> OccupancyGrid:
     """Read a map_server YAML (image, resolution, origin, negate, occupied_thresh, free_thresh)."""
     yaml_path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(yaml_path.read_text())
-    except FileNotFoundError:
-        raise MapFormatError(f"{yaml_path}: no such map file") from None
-    except yaml.YAMLError as exc:
-        raise MapFormatError(f"{yaml_path}: invalid YAML ({exc})") from None
+    meta = read_yaml_file(yaml_path, "map file", MapFormatError, str(yaml_path))
     if not isinstance(meta, dict):
         raise MapFormatError(f"{yaml_path}: expected a mapping with image, resolution and origin")
     for key in ("image", "resolution", "origin"):
         if key not in meta:
             raise MapFormatError(f"{yaml_path}: '{key}' is missing")
     res = meta["resolution"]
-    if not isinstance(res, (int, float)) or res <= 0:
+    if isinstance(res, bool) or not isinstance(res, (int, float)) or not 0 < res < float("inf"):
         raise MapFormatError(f"{yaml_path}: 'resolution' must be a positive number of metres per cell, got {res!r}")
     origin = meta["origin"]
     if not (isinstance(origin, list) and len(origin) == 3 and all(isinstance(v, (int, float)) for v in origin)):
@@ -82,11 +79,17 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     if abs(origin[2]) > 1e-9:
         raise MapFormatError(f"{yaml_path}: 'origin' yaw must be 0 (rotated maps are not supported)")
     image_path = (yaml_path.parent / str(meta["image"])).resolve()
-    img = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
+    try:
+        data = np.fromfile(image_path, dtype=np.uint8)   # read here: cv2.imread logs its own warning
+    except OSError:
+        data = None
+    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data is not None and data.size else None
     if img is None:
         raise MapFormatError(f"{yaml_path}: 'image' {image_path} is not a readable image")
-    occ_t = float(meta.get("occupied_thresh", 0.65))
-    free_t = float(meta.get("free_thresh", 0.196))
+    occ_t, free_t = meta.get("occupied_thresh", 0.65), meta.get("free_thresh", 0.196)
+    for key, v in (("occupied_thresh", occ_t), ("free_thresh", free_t)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v <= 1.0:
+            raise MapFormatError(f"{yaml_path}: '{key}' must be a number in [0, 1], got {v!r}")
     p = img.astype(np.float32) / 255.0
     occupancy = p if meta.get("negate", 0) else 1.0 - p
     cells = np.full(img.shape, UNKNOWN, dtype=np.int8)

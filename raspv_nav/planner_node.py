@@ -1,13 +1,28 @@
-"""`planner` node: the navigation assistant in the graph.
+"""`planner` node: the navigation assistant (:mod:`raspv_nav.assistant`) in the graph.
 
-Subscribes the robot pose (``/odom`` when a simulator publishes it, else ``/camera/pose``
-projected on the floor), depth + camera info (obstacles). Publishes the global path
-(``/nav/path``, world frame), a DWA velocity hint (``/nav/cmd_vel_hint``) and the building
-costmap (``/nav/global_costmap``, latched).
+Subscribes the subject's pose (``/odom``, the base, when a simulator publishes it; else
+``/camera/pose`` with the camera's heading — see ``pose_source``), camera info and depth. Each
+depth frame updates the obstacle layer with the camera pose *at its stamp* (a
+:class:`~raspv_common.pose_buffer.PoseBuffer`; a frame newer than the newest pose waits for
+it). Publishes, in the frame of the poses (``world``):
+
+- ``/nav/path`` (nav_msgs/Path, stamped with the pose it was planned from; empty when there is
+  no path, so no stale path stays on screen) at ``replan_rate``;
+- ``/nav/cmd_vel_hint`` (Twist, base frame) and ``/nav/guidance`` (raspv_msgs/NavGuidance) at
+  ``control_rate``: the DWA suggestion from the measured velocity (``/odom`` twist, or the
+  velocity of successive poses);
+- ``/nav/global_costmap`` (latched: the inflated static layer), ``/nav/costmap`` (the inflated
+  static + obstacle layers) and ``/nav/obstacle_layer`` (the live layer) as
+  nav_msgs/OccupancyGrid at ``costmap_rate``.
+
+All times are message stamps, so a replayed bag works with bag time.
 """
 from __future__ import annotations
 
 import math
+import statistics
+import time
+from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -15,26 +30,33 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMsg
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
+from raspv_msgs.msg import NavGuidance
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
-from raspv_common.conversions import (pose_to_matrix, stamp_to_seconds)
+from raspv_common.conversions import pose_to_matrix, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
-from raspv_nav.assistant import NavigationAssistant
-from raspv_nav.global_planner import PlannerConfig
-from raspv_nav.local_planner import DWAConfig, obstacle_points
+from raspv_nav.assistant import AssistantConfig, NavigationAssistant
+from raspv_nav.costmap import CostmapConfig
+from raspv_nav.local_planner import DWAConfig
+from raspv_nav.motion import MapAlignment, VelocityEstimator, planar_pose
+from raspv_nav.nav_msg import costmap_to_msg, guidance_to_msg, path_to_msg
+from raspv_nav.obstacle_layer import ObstacleLayerConfig
 from raspv_nav.occupancy import MapFormatError, load_map
 from raspv_nav.planner_params import PARAMS
 
-CMD_VEL_HINT = "/nav/cmd_vel_hint"
-GLOBAL_COSTMAP = "/nav/global_costmap"
 
-
-def yaw_of(world_from_frame: np.ndarray, axis: int) -> float:
-    """Heading in W of the frame's ``axis`` column projected on the floor."""
-    d = world_from_frame[:3, axis]
-    return math.atan2(d[1], d[0])
+def assistant_config(p: dict) -> AssistantConfig:
+    """The core's configuration from the node's parameters (raises ValueError)."""
+    return AssistantConfig(
+        costmap=CostmapConfig(robot_radius=p["robot_radius"], inflation_radius=p["inflation_radius"],
+                              cost_weight=p["cost_weight"]),
+        obstacles=ObstacleLayerConfig(min_height=p["obstacle_min_height"], max_height=p["obstacle_max_height"],
+                                      max_range=p["obstacle_range"], decay_s=p["obstacle_memory"]),
+        dwa=DWAConfig(max_speed=p["max_speed"], robot_radius=p["robot_radius"]),
+        goal_tolerance=p["goal_tolerance"], max_relocation=p["max_relocation"], proximity_range=p["proximity_range"])
 
 
 class PlannerNode(RaspvNode):
@@ -45,24 +67,38 @@ class PlannerNode(RaspvNode):
         goal = self._goal_position(p)
         if isinstance(goal, str):
             raise ConfigurationError(goal)
-        self.assistant = self._make_assistant(grid, p, goal)
-        self.pose: tuple[float, float, float] | None = None
-        self.velocity = (0.0, 0.0)
-        self.odom_seen = False
+        if len(p["map_from_odom"]) != 3:
+            raise ConfigurationError(f"map_from_odom must be [x, y, yaw_deg], got {p['map_from_odom']}")
+        x, y, yaw_deg = p["map_from_odom"]
+        try:
+            self.assistant = NavigationAssistant(grid, goal, assistant_config(p),
+                                                 MapAlignment((x, y, math.radians(yaw_deg))))
+        except ValueError as exc:
+            raise ConfigurationError(str(exc)) from None
+        self.camera_poses = PoseBuffer(max_age_s=5.0, max_extrapolation_s=0.1)
+        self.velocity_estimator = VelocityEstimator()
+        self.odom_velocity: tuple[float, float] | None = None
+        self.frame_id = "world"
+        self.pending_depth: tuple[float, np.ndarray] | None = None     # waits for a pose at its stamp
+        self._goal_reached_logged = False
+        self.timings: dict[str, deque] = {k: deque(maxlen=5000) for k in ("replan", "depth", "control")}
         self.pub_path = self.create_publisher(PathMsg, topics.NAV_PATH, SENSOR_QOS)
-        self.pub_hint = self.create_publisher(Twist, CMD_VEL_HINT, COMMAND_QOS)
-        self.pub_costmap = self.create_publisher(OccupancyGridMsg, GLOBAL_COSTMAP, LATCHED_QOS)
-        self.create_subscription(Odometry, topics.ODOM, self.on_odom, SENSOR_QOS)
+        self.pub_hint = self.create_publisher(Twist, topics.NAV_CMD_VEL_HINT, COMMAND_QOS)
+        self.pub_guidance = self.create_publisher(NavGuidance, topics.NAV_GUIDANCE, SENSOR_QOS)
+        self.pub_global = self.create_publisher(OccupancyGridMsg, topics.NAV_GLOBAL_COSTMAP, LATCHED_QOS)
+        self.pub_costmap = self.create_publisher(OccupancyGridMsg, topics.NAV_COSTMAP, SENSOR_QOS)
+        self.pub_layer = self.create_publisher(OccupancyGridMsg, topics.NAV_OBSTACLE_LAYER, SENSOR_QOS)
+        if p["pose_source"] != "camera":
+            self.create_subscription(Odometry, topics.ODOM, self.on_odom, SENSOR_QOS)
         self.create_subscription(PoseStamped, topics.CAMERA_POSE, self.on_camera_pose, SENSOR_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(Image, topics.DEPTH, self.on_depth, SENSOR_QOS)
-        self.camera_pose: np.ndarray | None = None
-        self._timers = []
+        self._timers: list = []
         self._start_timers(p)
-        self._goal_reached_logged = False
-        self.publish_costmap(grid)
+        self.publish_global_costmap()
         self.get_logger().info(f"building map from {p['map'] or p['world']} ({grid.shape[1]}x{grid.shape[0]} cells at "
-                               f"{grid.resolution} m), goal {p['goal_name'] or ''} {np.round(goal, 2).tolist()}")
+                               f"{grid.resolution} m), goal {p['goal_name'] or ''} {np.round(goal, 2).tolist()}, "
+                               f"map_from_odom {list(p['map_from_odom'])}")
 
     @staticmethod
     def _load_building(p: dict):
@@ -87,7 +123,7 @@ class PlannerNode(RaspvNode):
         return grid, goals
 
     def _goal_position(self, p: dict):
-        """Goal (x, y) from goal_name or goal; a string explains what is wrong."""
+        """Goal (x, y) in the map frame from goal_name or goal; a string explains what is wrong."""
         if p["goal_name"]:
             if p["goal_name"] not in self.world_goals:
                 known = ", ".join(sorted(self.world_goals)) or "none (goal names need 'world')"
@@ -97,94 +133,143 @@ class PlannerNode(RaspvNode):
             return f"goal must be [x, y], got {p['goal']}"
         return np.array(p["goal"], dtype=float)
 
-    @staticmethod
-    def _make_assistant(grid, p: dict, goal: np.ndarray) -> NavigationAssistant:
-        return NavigationAssistant(
-            grid, goal,
-            PlannerConfig(robot_radius=p["robot_radius"], inflation_radius=p["inflation_radius"]),
-            DWAConfig(max_speed=p["max_speed"], robot_radius=p["robot_radius"]),
-            goal_tolerance=p["goal_tolerance"], memory_s=p["obstacle_memory"])
-
     def _start_timers(self, p: dict) -> None:
         for t in self._timers:
             self.destroy_timer(t)
         self._timers = [self.create_timer(1.0 / p["replan_rate"], self.replan),
                         self.create_timer(1.0 / p["control_rate"], self.control)]
+        if p["costmap_rate"] > 0:
+            self._timers.append(self.create_timer(1.0 / p["costmap_rate"], self.publish_costmaps))
 
     def on_parameters(self, changes):
         merged = {**self.params, **changes}
         goal = self._goal_position(merged)
         if isinstance(goal, str):
             return goal
-        self.assistant = self._make_assistant(self.assistant.grid, merged, goal)
-        if "replan_rate" in changes or "control_rate" in changes:
+        self.assistant.goal = np.asarray(goal, dtype=float)[:2]
+        self.assistant.config.max_relocation = merged["max_relocation"]
+        self.assistant.planner.max_relocation = merged["max_relocation"]
+        if {"replan_rate", "control_rate", "costmap_rate"} & set(changes):
             self._start_timers(merged)
-        self._goal_reached_logged = False
+        if "goal" in changes or "goal_name" in changes:
+            self._goal_reached_logged = False
         return None
 
     # -- inputs ------------------------------------------------------------------------------
-    def now_s(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+    def _use_odom(self) -> bool:
+        return self.params["pose_source"] == "odom" or (self.params["pose_source"] == "auto"
+                                                         and self.odom_velocity is not None)
 
     def on_odom(self, msg: Odometry) -> None:
-        T = pose_to_matrix(msg.pose.pose)
-        self.odom_seen = True
-        self.pose = (float(T[0, 3]), float(T[1, 3]), yaw_of(T, 0))
-        self.velocity = (float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z))
+        try:
+            T = pose_to_matrix(msg.pose.pose)
+            if not np.all(np.isfinite(T)):
+                raise ValueError("the pose is not finite")
+        except ValueError as exc:
+            self.warn_throttled("odom", f"ignoring {topics.ODOM}: {exc}")
+            return
+        v, w = msg.twist.twist.linear.x, msg.twist.twist.angular.z
+        self.odom_velocity = (float(v), float(w)) if math.isfinite(v) and math.isfinite(w) else (0.0, 0.0)
+        self.frame_id = msg.header.frame_id or self.frame_id
+        self.assistant.set_subject(stamp_to_seconds(msg.header.stamp), *planar_pose(T, axis=0))
 
     def on_camera_pose(self, msg: PoseStamped) -> None:
-        self.camera_pose = pose_to_matrix(msg.pose)
-        if not self.odom_seen:  # no body odometry: walk where the camera looks
-            T = self.camera_pose
-            self.pose = (float(T[0, 3]), float(T[1, 3]), yaw_of(T, 2))
-
+        stamp = stamp_to_seconds(msg.header.stamp)
+        try:
+            T = pose_to_matrix(msg.pose)
+            self.camera_poses.add(stamp, T)
+        except ValueError as exc:
+            self.warn_throttled("pose", f"ignoring {topics.CAMERA_POSE}: {exc}")
+            return
+        if not self._use_odom():           # no body odometry: the subject walks where the camera looks
+            self.frame_id = msg.header.frame_id or self.frame_id
+            x, y, yaw = planar_pose(T, axis=2)
+            self.velocity_estimator.add(stamp, x, y, yaw)
+            self.assistant.set_subject(stamp, x, y, yaw)
+        if self.pending_depth is not None and self.pending_depth[0] <= stamp:
+            pending, self.pending_depth = self.pending_depth, None
+            self._add_depth(*pending)
 
     def on_depth(self, msg: Image) -> None:
-        p = self.params
-        if not p["use_camera_obstacles"] or self.intrinsics is None or self.camera_pose is None:
+        if not self.params["use_camera_obstacles"] or self.intrinsics is None:
             return
         depth = self.read_depth(msg)
         if depth is None:
             return
-        pts = obstacle_points(depth, self.intrinsics, self.camera_pose, p["obstacle_min_height"],
-                              p["obstacle_max_height"], p["obstacle_range"])
-        self.assistant.add_obstacles(pts, stamp_to_seconds(msg.header.stamp) or self.now_s())
+        stamp = stamp_to_seconds(msg.header.stamp)
+        latest = self.camera_poses.latest()
+        if latest is not None and stamp > latest.stamp:
+            self.pending_depth = (stamp, depth)          # the pose of this frame is on its way
+            return
+        self._add_depth(stamp, depth)
+
+    def _add_depth(self, stamp: float, depth: np.ndarray) -> None:
+        pose = self.camera_poses.lookup_or_none(stamp)
+        if pose is None:
+            self.warn_throttled("depth-pose", f"no camera pose at the depth stamp {stamp:.3f} s on "
+                                              f"{topics.CAMERA_POSE}; its obstacles are not used")
+            return
+        t0 = time.perf_counter()
+        self.assistant.add_depth(depth, self.intrinsics, pose, stamp)
+        self.timings["depth"].append(1e3 * (time.perf_counter() - t0))
 
     # -- outputs -----------------------------------------------------------------------------
     def replan(self) -> None:
-        if self.pose is None:
-            self.warn_throttled("pose", "waiting for /odom or /camera/pose")
+        t0 = time.perf_counter()
+        status = self.assistant.replan()
+        if status.plan is not None:
+            self.timings["replan"].append(1e3 * (time.perf_counter() - t0))
+        if self.assistant.subject is None:
+            self.warn_throttled("pose", f"waiting for {topics.ODOM} or {topics.CAMERA_POSE}")
             return
-        status = self.assistant.replan(np.array(self.pose[:2]), self.now_s())
+        header = self.header(self.frame_id, status.stamp)
         if status.path is None:
             self.warn_throttled("nopath", f"no path to the goal: {status.reason}")
+            self.pub_path.publish(PathMsg(header=header))       # nothing stale stays on screen
             return
         if status.goal_reached and not self._goal_reached_logged:
             self.get_logger().info(f"goal {np.round(self.assistant.goal, 2).tolist()} reached")
             self._goal_reached_logged = True
-        msg = PathMsg(header=self.header("world"))
-        for x, y in status.path:
-            ps = PoseStamped(header=msg.header)
-            ps.pose.position.x, ps.pose.position.y = float(x), float(y)
-            msg.poses.append(ps)
-        self.pub_path.publish(msg)
+        self.pub_path.publish(path_to_msg(status.path, header))
 
     def control(self) -> None:
-        if self.pose is None:
+        if self.assistant.subject is None:
             return
-        res = self.assistant.velocity_hint(self.pose, self.velocity, self.now_s())
+        velocity = self.odom_velocity if self._use_odom() else self.velocity_estimator.velocity()
+        t0 = time.perf_counter()
+        self.assistant.costmap_state()
+        result = self.assistant.velocity_hint(velocity)
+        self.timings["control"].append(1e3 * (time.perf_counter() - t0))
         hint = Twist()
-        hint.linear.x, hint.angular.z = res.linear, res.angular
+        hint.linear.x, hint.angular.z = result.linear, result.angular
         self.pub_hint.publish(hint)
+        guidance = self.assistant.guidance()
+        self.pub_guidance.publish(guidance_to_msg(guidance, self.header(self.frame_id, guidance.stamp)))
 
-    def publish_costmap(self, grid) -> None:
-        msg = OccupancyGridMsg(header=self.header("world"))
-        msg.info.resolution = float(grid.resolution)
-        msg.info.width, msg.info.height = int(grid.shape[1]), int(grid.shape[0])
-        msg.info.origin.position.x, msg.info.origin.position.y = grid.origin
-        msg.info.origin.orientation.w = 1.0
-        msg.data = grid.cells.ravel().astype(np.int8).tolist()
-        self.pub_costmap.publish(msg)
+    def publish_global_costmap(self) -> None:
+        a = self.assistant
+        self.pub_global.publish(costmap_to_msg(a.costmap.static.occupancy_values(), a.grid, a.alignment,
+                                               self.header(self.frame_id)))
+
+    def publish_costmaps(self) -> None:
+        a = self.assistant
+        stamp = a.now
+        header = self.header(self.frame_id, stamp)
+        self.pub_costmap.publish(costmap_to_msg(a.costmap.state.occupancy_values(), a.grid, a.alignment, header))
+        self.pub_layer.publish(costmap_to_msg(a.costmap.obstacle_layer.occupancy_values(stamp), a.grid,
+                                              a.alignment, header))
+
+    def close(self) -> None:
+        # rclpy's context may already be shut down here: report with print, not the ROS logger
+        parts = []
+        for name, what in (("replan", "replans (A*)"), ("depth", "depth frames into the costmap"),
+                           ("control", "control steps (inflation + DWA)")):
+            v = sorted(getattr(self, "timings", {}).get(name, ()))
+            if v:
+                parts.append(f"{len(v)} {what} median {statistics.median(v):.1f} ms, "
+                             f"p95 {v[min(len(v) - 1, int(0.95 * (len(v) - 1)))]:.1f} ms")
+        if parts:
+            print("planner: " + "; ".join(parts), flush=True)
 
 
 def main(argv=None) -> None:

@@ -92,12 +92,16 @@ class FloorExpectation:
 class FloorTracker:
     """Chooses the floor among upward-facing planes, frame after frame.
 
-    First floor: normal within ``first_floor_max_angle_deg`` of the camera's up (or within
-    ``prior_max_angle_deg`` of the up of a given camera pose), camera height in
-    [``first_floor_min_height``, ``first_floor_max_height``], the largest such plane.
+    First floor: normal within ``first_floor_max_angle_deg`` of the camera's up and camera
+    height in [``first_floor_min_height``, ``first_floor_max_height``] (the mounting's limits);
+    with a camera pose, normal within ``prior_max_angle_deg`` of the pose's up and the same
+    heights; with gravity measured by an IMU, normal within ``prior_max_angle_deg`` of it at any
+    height. Among the accepted planes the lowest is the floor (tables, seats and steps stand on
+    it), each needing ``min_floor_area`` in view.
     Tracking: the previous floor (moved by the pose change when poses are given) predicts the
     next; a candidate within ``track_max_angle_deg`` and ``track_max_height_change`` is the
-    floor. After ``track_lost_frames`` frames without it, the search starts over.
+    floor (the largest such). After ``track_lost_frames`` frames without it, the search starts
+    over — and once, when IMU gravity arrives for a floor that was found without it.
     """
 
     def __init__(self, config: SceneConfig) -> None:
@@ -108,14 +112,22 @@ class FloorTracker:
         self._plane_c: np.ndarray | None = None       # last floor in the camera frame of its frame
         self._plane_w: np.ndarray | None = None       # ... and in the world frame when posed
         self._missed = 0
+        self._with_gravity = False                    # the tracked floor was first found along IMU gravity
+        self._gravity_now = False
 
     @property
     def tracking(self) -> bool:
         return self._plane_c is not None
 
-    def expectation(self, world_from_camera: np.ndarray | None) -> FloorExpectation:
-        """The search window for this frame (pose: 4×4 world ← camera, world z up, or None)."""
+    def expectation(self, world_from_camera: np.ndarray | None,
+                    gravity_up: np.ndarray | None = None) -> FloorExpectation:
+        """The search window for this frame (pose: 4×4 world ← camera, world z up, or None;
+        ``gravity_up``: the up direction in C measured by an IMU, or None)."""
         cfg = self.config
+        self._gravity_now = gravity_up is not None
+        if self._plane_c is not None and self._gravity_now and not self._with_gravity:
+            self.reset()              # a floor chosen by the mounting's limits alone: search again along gravity
+            self._gravity_now = True
         if self._plane_c is not None:
             if world_from_camera is not None and self._plane_w is not None:
                 predicted = transform_plane(self._plane_w, _inverse(world_from_camera))
@@ -127,15 +139,21 @@ class FloorTracker:
         if world_from_camera is not None:
             up = np.asarray(world_from_camera, dtype=np.float64)[:3, :3].T @ np.array([0.0, 0.0, 1.0])
             return FloorExpectation(up, cfg.prior_max_angle_deg, cfg.first_floor_min_height, cfg.first_floor_max_height)
+        if gravity_up is not None:
+            up = np.asarray(gravity_up, dtype=np.float64)
+            return FloorExpectation(up / np.linalg.norm(up), cfg.prior_max_angle_deg, 0.0, cfg.max_depth)
         return FloorExpectation(CAMERA_UP.copy(), cfg.first_floor_max_angle_deg,
                                 cfg.first_floor_min_height, cfg.first_floor_max_height)
 
     def choose(self, candidates: list[FloorCandidate], expectation: FloorExpectation) -> FloorCandidate | None:
-        """The floor among ``candidates`` (largest accepted), or None. A tracked floor needs
-        only ``track_min_floor_area`` in view, a new one ``min_floor_area``."""
-        min_area = self.config.track_min_floor_area if expectation.predicted is not None else self.config.min_floor_area
-        ok = [c for c in candidates if expectation.accepts(c, min_area)]
-        return max(ok, key=lambda c: c.area) if ok else None
+        """The floor among ``candidates``, or None: a new floor is the lowest accepted plane
+        with ``min_floor_area`` in view, a tracked floor the largest accepted plane with
+        ``track_min_floor_area``."""
+        if expectation.predicted is not None:
+            ok = [c for c in candidates if expectation.accepts(c, self.config.track_min_floor_area)]
+            return max(ok, key=lambda c: c.area) if ok else None
+        ok = [c for c in candidates if expectation.accepts(c, self.config.min_floor_area)]
+        return max(ok, key=lambda c: c.height) if ok else None
 
     def update(self, floor: np.ndarray | None, world_from_camera: np.ndarray | None) -> None:
         """Record this frame's floor plane in C (or None when not seen)."""
@@ -145,6 +163,8 @@ class FloorTracker:
                 if self._missed >= self.config.track_lost_frames:
                     self.reset()
             return
+        if self._plane_c is None:
+            self._with_gravity = self._gravity_now
         self._missed = 0
         self._plane_c = np.asarray(floor, dtype=np.float64).copy()
         self._plane_w = (transform_plane(self._plane_c, np.asarray(world_from_camera, dtype=np.float64))

@@ -5,8 +5,37 @@ where the real test frames asked otherwise (each such change says why).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, fields
+
+
+@dataclass(frozen=True)
+class Mounting:
+    """Where the camera is carried, as limits for the first floor: camera height above the floor
+    [m] and tilt of the floor normal from the camera's up axis [deg]."""
+
+    min_height: float
+    max_height: float
+    max_tilt_deg: float
+    why: str
+
+
+# Camera mountings (``mounting`` parameter of the scene node). The limits bracket the bodies and
+# robots that carry the camera, with margins, rather than any recorded frame:
+MOUNTINGS: dict[str, Mounting] = {
+    # eyes of adults standing (≈1.45–1.75 m, 5th–95th percentile) or seated (≈1.1–1.3 m);
+    # the authors' limits were 1.0–1.8 m and 30°; 2.0 m and 40° keep tall people and a head
+    # looking down at the path
+    "head": Mounting(1.0, 2.0, 40.0, "head-mounted (glasses, headset), standing or seated"),
+    # a chest harness on a standing adult (sternum ≈1.1–1.5 m) or a seated/wheelchair user
+    # (≈0.8–1.1 m); harness cameras are tilted down to see the path
+    "chest": Mounting(0.7, 1.6, 50.0, "chest harness or strap, standing or seated"),
+    # held in front of the body (≈0.8–1.4 m) or on a cane (≈0.3–0.9 m), aimed at the ground ahead
+    "hand": Mounting(0.3, 1.5, 60.0, "hand-held or on a cane"),
+    # ground robots (≈0.1–0.5 m) to guide robots and mobile manipulators (≈1–1.5 m)
+    "robot": Mounting(0.1, 1.5, 60.0, "mobile robot or other low platform"),
+}
 
 
 @dataclass(frozen=True)
@@ -37,7 +66,7 @@ class SceneConfig:
     track_max_angle_deg: float = 15.0         # tracked floor: normal change between frames [deg]
     track_max_height_change: float = 0.08     # tracked floor: camera height change between frames [m]
     track_lost_frames: int = 10               # frames without the tracked floor before starting over
-    prior_max_angle_deg: float = 15.0         # with a camera pose: floor normal vs the pose's up [deg]
+    prior_max_angle_deg: float = 15.0         # with a camera pose or IMU gravity: floor normal vs their up [deg]
     support_max_angle_deg: float = 60.0       # without floor: widest tilt of a support plane used as gravity reference [deg]
 
     # Manhattan axes
@@ -80,6 +109,17 @@ class SceneConfig:
             problems.append("min_obstacle_height must be below max_obstacle_height")
         if problems:
             raise ValueError("; ".join(problems))
+
+    def with_mounting(self, name: str) -> "SceneConfig":
+        """This configuration with the first-floor limits of mounting ``name`` (``MOUNTINGS``;
+        ``custom`` keeps the explicit limits)."""
+        if name == "custom":
+            return self
+        if name not in MOUNTINGS:
+            raise ValueError(f"unknown mounting {name!r}; expected {', '.join([*MOUNTINGS, 'custom'])}")
+        m = MOUNTINGS[name]
+        return dataclasses.replace(self, first_floor_min_height=m.min_height, first_floor_max_height=m.max_height,
+                                   first_floor_max_angle_deg=m.max_tilt_deg)
 
     def inlier_distance(self, z):
         """Plane inlier tolerance [m] at depth ``z`` [m] (scalar or array)."""

@@ -2,10 +2,10 @@
 (no rclpy: message classes only).
 
 The scene node publishes with :func:`structure_to_msg`; consumers (the spv node) turn
-``/scene/structure`` back into the core object with :func:`structure_from_msg`. Fields the
-message does not carry (``up`` and ``gravity_source`` when there is no floor) come back as
-their defaults; a floor's normal comes back as ``up``. Undefined floor fields travel as NaN
-(floats) and an identity pose.
+``/scene/structure`` back into the core object with :func:`structure_from_msg`. Undefined
+floor fields travel as NaN (floats) and an identity pose; ``up`` and ``gravity_source`` travel
+as they are (a message without them, all zeros, falls back to the floor's normal or the
+defaults).
 """
 from __future__ import annotations
 
@@ -59,6 +59,9 @@ def structure_to_msg(s: SceneStructure, header: Header | None = None) -> SceneSt
                                                 distance=float(o.distance), num_points=int(o.num_points)))
     msg.free_floor = [Point(x=float(x), y=0.0, z=float(z)) for x, z in np.asarray(s.free_floor).reshape(-1, 2)]
     msg.processing_ms = float(s.processing_ms)
+    msg.gravity_source = int(s.gravity_source)
+    up = np.asarray(s.up, dtype=np.float64)
+    msg.up = Vector3(x=float(up[0]), y=float(up[1]), z=float(up[2]))
     return msg
 
 
@@ -88,4 +91,8 @@ def structure_from_msg(msg: SceneStructureMsg) -> SceneStructure:
                                            float(o.distance), int(o.num_points)))
     s.free_floor = np.array([[q.x, q.z] for q in msg.free_floor], dtype=np.float64).reshape(-1, 2)
     s.processing_ms = float(msg.processing_ms)
+    up = xyz_to_array(msg.up)
+    if np.isfinite(up).all() and np.linalg.norm(up) > 0.5:
+        s.up = up / np.linalg.norm(up)
+        s.gravity_source = GravitySource(int(msg.gravity_source))
     return s

@@ -8,10 +8,17 @@ PARAMS = [
     Param("use_pose_prior", True, "use /camera/pose (when published) for gravity and floor tracking"),
     Param("pose_max_age", 0.2, "a pose further than this from the depth stamp is not used", minimum=0.0,
           maximum=5.0, unit="s"),
-    Param("first_floor_min_height", 1.0, "lowest camera height accepted for a new floor", minimum=0.1, maximum=3.0, unit="m"),
-    Param("first_floor_max_height", 2.0, "highest camera height accepted for a new floor", minimum=0.2, maximum=4.0, unit="m"),
-    Param("first_floor_max_angle_deg", 40.0, "largest camera tilt accepted for a new floor", minimum=1.0,
-          maximum=89.0, unit="deg"),
+    Param("mounting", "head", "where the camera is carried; sets the camera height and tilt accepted for a new "
+          "floor (head 1.0-2.0 m, chest 0.7-1.6 m, hand 0.3-1.5 m, robot 0.1-1.5 m; custom: the first_floor_* "
+          "limits)", choices=("head", "chest", "hand", "robot", "custom")),
+    Param("use_imu", True, "use the accelerometer on /camera/imu (when published) as gravity: a new floor is then "
+          "found at any camera height"),
+    Param("first_floor_min_height", 1.0, "with mounting 'custom': lowest camera height accepted for a new floor",
+          minimum=0.05, maximum=3.0, unit="m"),
+    Param("first_floor_max_height", 2.0, "with mounting 'custom': highest camera height accepted for a new floor",
+          minimum=0.2, maximum=4.0, unit="m"),
+    Param("first_floor_max_angle_deg", 40.0, "with mounting 'custom': largest camera tilt accepted for a new floor",
+          minimum=1.0, maximum=89.0, unit="deg"),
     Param("min_floor_area", 0.5, "visible floor needed to accept a new floor", minimum=0.0, maximum=20.0, unit="m^2"),
     Param("plane_distance", 0.02, "plane inlier distance at 0 m (grows with z^2)", minimum=0.002, maximum=0.2, unit="m"),
     Param("min_plane_area", 0.15, "smaller planar patches are not reported", minimum=0.0, maximum=10.0, unit="m^2"),
@@ -27,7 +34,7 @@ PARAMS = [
     Param("publish_labels", True, "publish the per-pixel class image /scene/labels"),
 ]
 
-# node parameter → SceneConfig field (same name unless listed)
+# node parameter → SceneConfig field (same name); ``mounting`` then overrides the first_floor_* limits
 CONFIG_FIELDS = ("stride", "min_depth", "max_depth", "first_floor_min_height", "first_floor_max_height",
                  "first_floor_max_angle_deg", "min_floor_area", "plane_distance", "min_plane_area", "min_wall_area",
                  "min_wall_top", "min_obstacle_height", "max_obstacle_height", "cluster_tolerance", "obstacle_margin")

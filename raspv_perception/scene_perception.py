@@ -72,14 +72,21 @@ class ScenePerception:
 
     # -----------------------------------------------------------------------------------------
     def process(self, depth: np.ndarray, intrinsics: CameraIntrinsics,
-                world_from_camera: np.ndarray | None = None) -> SceneResult:
+                world_from_camera: np.ndarray | None = None, gravity_up: np.ndarray | None = None) -> SceneResult:
         """Analyse one depth image ((H, W) float metres with NaN holes, or uint16 mm).
-        ``world_from_camera``: optional 4×4 pose (world z up), used as a prior for gravity."""
+        ``world_from_camera``: optional 4×4 pose (world z up), used as a prior for gravity;
+        ``gravity_up``: optional up direction in C measured by an IMU (see ``imu_gravity``),
+        which lets a first floor be found at any camera height."""
         t0 = time.perf_counter()
         cfg = self.config
         pose = None if world_from_camera is None else np.asarray(world_from_camera, dtype=np.float64)
         if pose is not None and (pose.shape != (4, 4) or not np.isfinite(pose).all()):
             raise ValueError(f"camera pose must be a finite 4x4 matrix, got shape {pose.shape}")
+        imu_up = None if gravity_up is None else np.asarray(gravity_up, dtype=np.float64).reshape(-1)
+        if imu_up is not None:
+            if imu_up.shape != (3,) or not np.isfinite(imu_up).all() or np.linalg.norm(imu_up) < 1e-6:
+                raise ValueError(f"gravity_up must be a finite non-zero 3-vector, got {gravity_up!r}")
+            imu_up = imu_up / np.linalg.norm(imu_up)
         depth = as_depth_metres(depth, intrinsics)
         cloud = organised_cloud(depth, intrinsics, cfg.stride, cfg.min_depth, cfg.max_depth)
         normals, has_normal = organised_normals(cloud, cfg.normal_step, cfg.max_inverse_depth_bend)
@@ -89,7 +96,7 @@ class ScenePerception:
         clock.lap("cloud_normals")
 
         # 1. Gravity and floor ------------------------------------------------------------------
-        expect = self.tracker.expectation(pose)
+        expect = self.tracker.expectation(pose, imu_up)
         cone = expect.max_angle_deg if self.tracker.tracking else max(expect.max_angle_deg, cfg.support_max_angle_deg)
         g = dominant_up(S, expect.up, cone, cfg.min_plane_area)
         layers = upward_layers(S, g, cfg) if g is not None else []
@@ -99,6 +106,8 @@ class ScenePerception:
         reference = None            # plane heights are measured from (floor, else support plane)
         if chosen is not None:
             up, source, reference = chosen.plane[:3], GravitySource.FLOOR, chosen.plane
+        elif imu_up is not None:
+            up, source = imu_up, GravitySource.IMU
         elif pose is not None:
             up, source = pose[:3, :3].T @ np.array([0.0, 0.0, 1.0]), GravitySource.POSE    # world z in C
         elif layers and angle_deg(layers[0][0][:3], CAMERA_UP) <= cfg.support_max_angle_deg:
@@ -106,7 +115,7 @@ class ScenePerception:
         else:
             up, source = (g if g is not None else CAMERA_UP), GravitySource.NONE
         up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
-        if reference is None and layers and source in (GravitySource.POSE, GravitySource.SUPPORT):
+        if reference is None and layers and source in (GravitySource.POSE, GravitySource.SUPPORT, GravitySource.IMU):
             reference = layers[0][0]
         structure.up, structure.gravity_source = up, source
         self.tracker.update(None if chosen is None else chosen.plane, pose)

@@ -30,6 +30,7 @@ class GravitySource(IntEnum):
     FLOOR = 1     # the detected floor
     POSE = 2      # the camera pose prior (world z up)
     SUPPORT = 3   # the dominant upward-facing plane (a table top, or a floor outside the first-floor limits)
+    IMU = 4       # gravity measured by the camera's accelerometer
 
 
 @dataclass

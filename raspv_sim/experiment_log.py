@@ -1,6 +1,6 @@
 """Per-run experiment logs, written line by line so nothing is lost if the run is killed (no rclpy).
 
-A run directory ``<log_dir>/<world>-<YYYYmmdd-HHMMSS>/`` holds
+A run directory ``<log_dir>/<world>-<YYYYmmdd-HHMMSS>/`` (or ``<log_dir>/<run_name>/``) holds
 
 - ``meta.json``       world (name and file), start time, configuration, goals — written at start;
 - ``trajectory.csv``  base and head at a fixed rate: ``t`` [s since start], base ``x, y, z`` [m, W],
@@ -50,18 +50,20 @@ class TrajectorySample:
 class ExperimentLog:
     """Writes one run. ``rate`` [Hz] is the trajectory sampling rate (sim time)."""
 
-    def __init__(self, log_dir: str | Path, world_name: str, meta: dict[str, Any], rate: float = 10.0):
+    def __init__(self, log_dir: str | Path, world_name: str, meta: dict[str, Any], rate: float = 10.0,
+                 run_name: str | None = None):
         if not rate > 0:
             raise ValueError(f"trajectory rate must be positive, got {rate}")
         self.rate = float(rate)
         stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
         base = Path(log_dir).expanduser()
         base.mkdir(parents=True, exist_ok=True)
-        run = base / f"{world_name}-{stamp}"
+        name = run_name or f"{world_name}-{stamp}"        # run_name: the caller's folder name
+        run = base / name
         k = 1
         while run.exists():
             k += 1
-            run = base / f"{world_name}-{stamp}-{k}"
+            run = base / f"{name}-{k}"
         run.mkdir()
         self.dir = run
         info = {"world": world_name, "started": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),

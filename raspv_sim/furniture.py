@@ -1,5 +1,5 @@
 """Furniture composed of primitives: tables, chairs, sofas, beds, shelves, bins, doors, boxes,
-cylinders and rugs. Each builder works in the object's local frame (front towards +x, y left,
+cylinders, rugs and laptops. Each builder works in the object's local frame (front towards +x, y left,
 z up, origin at the centre of its footprint on its base) with ``size`` = (length x, width y,
 height z) in metres."""
 from __future__ import annotations
@@ -113,6 +113,19 @@ def _box(f: LocalFrame, s: FurnitureSpec) -> list[Part]:
     return [f.box((0, 0, H / 2), (L, W, H), s.color)]
 
 
+def _laptop(f: LocalFrame, s: FurnitureSpec) -> list[Part]:
+    """An open laptop: ``size`` = (depth of the base, width, height of the open lid); the display
+    faces +x, the hinge is at the back (−x)."""
+    L, W, H = s.size
+    base_t, lid_t = min(0.02, H / 6), min(0.012, L / 10)
+    display = (0.08, 0.1, 0.16)
+    return [f.box((0, 0, base_t / 2), (L, W, base_t), s.color),
+            f.box((L * 0.05, 0, base_t + 0.002), (L * 0.5, W * 0.85, 0.004), shade(s.color, 0.45)),   # keyboard
+            f.box((-L / 2 + lid_t / 2, 0, base_t + (H - base_t) / 2), (lid_t, W, H - base_t), s.color),
+            f.box((-L / 2 + lid_t + 0.002, 0, base_t + (H - base_t) / 2), (0.004, W * 0.9, (H - base_t) * 0.85),
+                  display)]
+
+
 def _rug(f: LocalFrame, s: FurnitureSpec) -> list[Part]:
     """Sunk 5 mm into what it lies on, so its bottom never shares a plane with the floor."""
     L, W, H = s.size
@@ -125,4 +138,4 @@ def _cylinder(f: LocalFrame, s: FurnitureSpec) -> list[Part]:
 
 
 _BUILDERS = {"table": _table, "chair": _chair, "sofa": _sofa, "bed": _bed, "shelf": _shelf, "bin": _bin,
-             "door": _door, "box": _box, "cylinder": _cylinder, "rug": _rug}
+             "door": _door, "box": _box, "cylinder": _cylinder, "rug": _rug, "laptop": _laptop}

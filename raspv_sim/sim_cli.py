@@ -55,12 +55,13 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check(args) -> int:
-    from raspv_sim.world_spec import BUILTIN_CLASSES, WorldFileError, load_world
+    from raspv_sim.world_check import check_world
+    from raspv_sim.world_spec import BUILTIN_CLASSES, WorldFileError
 
     bad = 0
     for name in args.worlds:
         try:
-            w = load_world(name)
+            w = check_world(name)          # the YAML, then built headless: meshes, people, spawn
         except WorldFileError as exc:
             print(f"error: {exc}")
             bad += 1

@@ -5,6 +5,11 @@ Publishes colour (rgb8), depth (32FC1 m), camera info, ``/camera/pose`` (world �
 std_msgs/String, JSON ``{"world": name, "classes": [name of id 0, id 1, ...]}``) and
 ``/sim/collisions`` (raspv_msgs/CollisionEvent). Subscribes ``/cmd_vel`` (Twist, base frame) and
 ``/head/orientation`` (QuaternionStamped, head relative to the base; identity looks ahead).
+
+Experiments: ``/clock`` carries the simulation time; the services ``/sim/start_trial`` and
+``/sim/end_trial`` (raspv_msgs/srv) put the avatar at a start pose and log one trial; with
+``step_mode: lockstep`` the world steps when a controller answers the last frame on
+``/sim/lockstep`` (:mod:`raspv_sim.lockstep`), stamped in sim time; ``paused`` holds the world.
 """
 from __future__ import annotations
 
@@ -13,22 +18,25 @@ import json
 import math
 import time
 
-from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, Vector3
+from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from raspv_msgs.msg import CollisionEvent as CollisionEventMsg
+from raspv_msgs.srv import EndTrial, StartTrial
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
 
 from raspv_common import topics
-from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose
+from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
+from raspv_sim.lockstep import Lockstep
 from raspv_sim.sim_params import PARAMS
 from raspv_sim.simulator import SimConfig, Simulation
-from raspv_sim.world_spec import WorldFileError
+from raspv_sim.world_spec import GoalSpec, WorldFileError
 
 MAX_STEP_S = 0.2               # a stalled tick never moves the avatar more than this much time
 
@@ -89,13 +97,22 @@ class SimNode(RaspvNode):
         self.cmd_time = -math.inf
         self.last_tick: float | None = None
         self.timings = {"step": 0.0, "render": 0.0, "publish": 0.0, "frames": 0}
-        self.create_timer(1.0 / p["rate"], self.tick)
+        self.pub_clock = self.create_publisher(Clock, topics.CLOCK, COMMAND_QOS)
+        self.create_service(StartTrial, topics.SIM_START_TRIAL, self.on_start_trial)
+        self.create_service(EndTrial, topics.SIM_END_TRIAL, self.on_end_trial)
+        self.lockstep: Lockstep | None = None
+        if p["step_mode"] == "lockstep":
+            self.lockstep = Lockstep(p["lockstep_timeout"])
+            self.create_subscription(TwistStamped, topics.SIM_LOCKSTEP, self.on_lockstep, COMMAND_QOS)
+            self.create_timer(0.02, self.lockstep_poll)
+        else:
+            self.create_timer(1.0 / p["rate"], self.tick)
         s, K = self.sim.spec, self.sim.intrinsics
         margin = f" + {p['margin_deg']:g}° margin = {K.width}x{K.height} {K.hfov_deg:.0f}°" if p["margin_deg"] else ""
         self.get_logger().info(
             f"world '{s.name}' ({s.source}), renderer: {self.sim.renderer.description}; camera {p['width']}x{p['height']} "
             f"{p['hfov_deg']:g}°{margin} at {p['rate']:g} Hz, eye height {p['eye_height']} m; depth noise "
-            f"{'on' if p['depth_noise'] else 'off'}")
+            f"{'on' if p['depth_noise'] else 'off'}" + ("; lockstep stepping" if self.lockstep else ""))
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_cmd_vel(self, msg: Twist) -> None:
@@ -112,6 +129,56 @@ class SimNode(RaspvNode):
             self.sim.set_head((q.x, q.y, q.z, q.w))
         except ValueError as exc:
             self.warn_throttled("head", f"ignoring /head/orientation: {exc}")
+
+    def on_lockstep(self, msg: TwistStamped) -> None:
+        v, w = msg.twist.linear.x, msg.twist.angular.z
+        if not (math.isfinite(v) and math.isfinite(w)):
+            self.warn_throttled("lockstep", f"ignoring /sim/lockstep with non-finite values ({v}, {w})")
+            return
+        if self.lockstep.answer(stamp_to_seconds(msg.header.stamp), v, w):
+            self.lockstep_poll()
+
+    def lockstep_poll(self) -> None:
+        """Step when the last frame was answered (or its answer is late), unless paused."""
+        if self.params["paused"] or not self.lockstep.poll(time.monotonic()):
+            return
+        self.tick(1.0 / self.params["rate"], self.lockstep.take())
+        self.lockstep.published(self.sim.t, time.monotonic())
+
+    # -- trials (experiments) -------------------------------------------------------------------
+    def on_start_trial(self, req: StartTrial.Request, res: StartTrial.Response) -> StartTrial.Response:
+        goals = (GoalSpec(req.goal_name or "goal", (req.goal_x, req.goal_y), req.goal_radius),) \
+            if req.goal_radius > 0 else ()
+        try:
+            self.sim.start_trial(req.x, req.y, req.yaw, goals)
+        except ValueError as exc:
+            res.success, res.message = False, str(exc)
+            return res
+        self.cmd = (0.0, 0.0)
+        if self.lockstep is not None:
+            self.lockstep.command = (0.0, 0.0)
+        if self.sim.log is not None:
+            self.sim.finish_log(plot=False)
+        if req.log_dir:
+            try:
+                log = self.sim.start_log(req.log_dir, self.params["log_rate"], {"trial": req.run_name},
+                                         req.run_name or None)
+            except OSError as exc:
+                res.success, res.message = False, f"cannot write the trial log to '{req.log_dir}': {exc.strerror}"
+                return res
+            res.run_dir = str(log.dir)
+        res.success, res.sim_time = True, float(self.sim.t)
+        self.get_logger().info(f"trial {req.run_name or ''} starts at ({req.x:.2f}, {req.y:.2f}), "
+                               f"yaw {math.degrees(req.yaw):.0f} deg, t = {self.sim.t:.2f} s")
+        return res
+
+    def on_end_trial(self, req: EndTrial.Request, res: EndTrial.Response) -> EndTrial.Response:
+        res.success, res.sim_time = True, float(self.sim.t)
+        if self.sim.log is not None:
+            summary, _ = self.sim.finish_log(plot=req.plot)
+            res.summary_json = json.dumps(summary)
+        self.sim.trial_goals = ()
+        return res
 
     # -- parameters -----------------------------------------------------------------------------
     def on_parameters(self, changes: dict) -> str | None:
@@ -146,18 +213,24 @@ class SimNode(RaspvNode):
                 sub.callback(taken[0])
 
     # -- the loop -------------------------------------------------------------------------------
-    def tick(self) -> None:
+    def tick(self, dt: float | None = None, command: tuple[float, float] | None = None) -> None:
+        """Step (by the wall clock, or ``dt`` s with ``command`` in lockstep), render, publish."""
         self.take_commands()
         t0 = time.monotonic()
-        dt = 0.0 if self.last_tick is None else min(t0 - self.last_tick, MAX_STEP_S)
+        if dt is None:
+            dt = 0.0 if self.last_tick is None else min(t0 - self.last_tick, MAX_STEP_S)
+            timeout = self.params["cmd_timeout"]
+            command = self.cmd if (timeout == 0 or t0 - self.cmd_time <= timeout) else (0.0, 0.0)
         self.last_tick = t0
-        timeout = self.params["cmd_timeout"]
-        v, w = self.cmd if (timeout == 0 or t0 - self.cmd_time <= timeout) else (0.0, 0.0)
-        report = self.sim.step(dt, v, w)
+        if self.params["paused"]:
+            dt, command = 0.0, (0.0, 0.0)
+        report = self.sim.step(dt, *command)
         t1 = time.monotonic()
         frame = self.sim.render()
         t2 = time.monotonic()
-        header = self.header(self.params["frame_id"])
+        stamp = self.sim.t if self.lockstep is not None else None      # lockstep: stamped in sim time
+        self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
+        header = self.header(self.params["frame_id"], stamp)
         self.camera_info.header = header
         self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
         self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))

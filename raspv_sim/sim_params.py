@@ -2,7 +2,8 @@
 from raspv_common.params import Param
 
 PARAMS = [
-    Param("world", "apartment", "shipped world name (apartment, stairs, office) or path of a world YAML file", dynamic=False),
+    Param("world", "apartment", "shipped world name (apartment, stairs, office) or path of a world YAML file", dynamic=False,
+          file_kind="world"),
     Param("width", 320, "image width", minimum=16, maximum=1920, dynamic=False, unit="px"),
     Param("height", 240, "image height", minimum=16, maximum=1080, dynamic=False, unit="px"),
     Param("hfov_deg", 60.0, "horizontal field of view", minimum=10.0, maximum=150.0, dynamic=False, unit="deg"),
@@ -36,6 +37,13 @@ PARAMS = [
           maximum=1.0),
     Param("depth_max_range", 6.0, "sensor range with depth_noise on", minimum=0.5, maximum=50.0, unit="m"),
     Param("seed", 0, "random seed of the depth-sensor model", minimum=0, maximum=2**31 - 1, dynamic=False),
-    Param("log_dir", "", "experiment logs go to <log_dir>/<world>-<time>/ (empty: no log)", dynamic=False),
+    Param("log_dir", "", "experiment logs go to <log_dir>/<world>-<time>/ (empty: no log)", dynamic=False,
+          file_kind="output_dir"),
+    Param("step_mode", "realtime", "realtime: step with the wall clock at 'rate'; lockstep: step 1/rate s of sim time "
+          "each time a controller answers the last frame on /sim/lockstep (scripted subjects, sweeps)",
+          choices=("realtime", "lockstep"), dynamic=False),
+    Param("lockstep_timeout", 2.0, "lockstep: step anyway when no answer came for this long", minimum=0.05,
+          maximum=60.0, dynamic=False, unit="s"),
+    Param("paused", False, "hold the world: no time passes and nothing moves (realtime: frames keep coming)"),
     Param("log_rate", 10.0, "trajectory samples per second in the log", minimum=0.5, maximum=100.0, dynamic=False, unit="Hz"),
 ]

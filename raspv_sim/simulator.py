@@ -23,7 +23,7 @@ from raspv_sim.experiment_log import ExperimentLog, TrajectorySample
 from raspv_sim.native_output import captured_native_output
 from raspv_sim.sim_camera import RendererInfo, SimCamera, load_renderer
 from raspv_sim.world_builder import BuiltWorld, build_world
-from raspv_sim.world_spec import WorldFileError, WorldSpec, display_path, load_world
+from raspv_sim.world_spec import GoalSpec, WorldFileError, WorldSpec, display_path, load_world
 
 DROP_NAME, DROP_CLASS = "edge", "drop"   # pseudo-object reported when the avatar stops at a drop
 
@@ -105,9 +105,36 @@ class Simulation:
         self.linear = 0.0
         self.angular = 0.0
         self.goals_reached: dict[str, float] = {}
+        self.trial_goals: tuple[GoalSpec, ...] = ()       # goals of the current trial (start_trial)
+        self.people_t0 = 0.0                              # people walk from where they were at this time
         self.log: ExperimentLog | None = None
 
-    def start_log(self, log_dir: str | Path, rate: float = 10.0, extra: dict | None = None) -> ExperimentLog:
+    def start_trial(self, x: float, y: float, yaw: float, goals: tuple[GoalSpec, ...] = ()) -> None:
+        """Start a trial (experiments): the avatar stands at (x, y) [m, W] facing ``yaw`` [rad] with
+        the head straight ahead, people restart their walks from their initial places, the
+        collision count and reached goals are cleared, and ``goals`` are checked besides the
+        world's. Time keeps running (the clock never goes back). Raises ``ValueError`` when the
+        avatar cannot stand there."""
+        if not all(math.isfinite(v) for v in (x, y, yaw)):
+            raise ValueError(f"start pose must be finite numbers, got ({x}, {y}, {yaw})")
+        old = (self.avatar.x, self.avatar.y, self.avatar.yaw)
+        self.world.update_people(0.0)                     # people where they start, then check the pose
+        self.avatar.teleport(x, y, yaw)
+        problem = self.avatar.placement_problem()
+        if problem:
+            self.avatar.teleport(*old)
+            self.world.update_people(self.t - self.people_t0)
+            raise ValueError(f"the avatar at ({x:.2f}, {y:.2f}) {problem}")
+        self.avatar.set_head((0.0, 0.0, 0.0, 1.0))
+        self.avatar.path_length = 0.0
+        self.linear = self.angular = 0.0
+        self.people_t0 = self.t
+        self.monitor = CollisionMonitor(self.monitor.debounce_s)
+        self.goals_reached = {}
+        self.trial_goals = tuple(goals)
+
+    def start_log(self, log_dir: str | Path, rate: float = 10.0, extra: dict | None = None,
+                  run_name: str | None = None) -> ExperimentLog:
         """Log this run from now on (trajectory at ``rate`` Hz, collisions, goals); see
         :mod:`raspv_sim.experiment_log`. Closed by :meth:`close`."""
         if self.log is not None:
@@ -115,14 +142,15 @@ class Simulation:
         s, c = self.spec, self.config
         meta = {"world_file": str(s.source) if s.source else None, "description": s.description,
                 "classes": list(s.classes), "spawn": {"position": list(s.spawn_position), "yaw_deg": s.spawn_yaw},
-                "goals": [{"name": g.name, "position": list(g.position), "radius": g.radius} for g in s.goals],
+                "goals": [{"name": g.name, "position": list(g.position), "radius": g.radius}
+                          for g in (*s.goals, *self.trial_goals)],
                 "camera": {"width": c.width, "height": c.height, "hfov_deg": c.hfov_deg, "near": c.near, "far": c.far,
                            "renderer": self.renderer.name},
                 "avatar": {k: getattr(c.avatar, k) for k in c.avatar.__dataclass_fields__},
                 "depth_sensor": None if c.depth_sensor is None else
                 {k: getattr(c.depth_sensor, k) for k in c.depth_sensor.__dataclass_fields__},
                 **(extra or {})}
-        self.log = ExperimentLog(log_dir, s.name, meta, rate)
+        self.log = ExperimentLog(log_dir, s.name, meta, rate, run_name)
         self.log.sample(self.trajectory_sample(), force=True)
         return self.log
 
@@ -150,7 +178,7 @@ class Simulation:
         if not (dt >= 0 and math.isfinite(dt)):
             raise ValueError(f"time step must be a non-negative number of seconds, got {dt}")
         self.t += dt
-        self.world.update_people(self.t)
+        self.world.update_people(self.t - self.people_t0)
         a = self.avatar.config
         self.linear = max(-a.max_linear, min(a.max_linear, float(linear)))
         self.angular = max(-a.max_angular, min(a.max_angular, float(angular)))
@@ -166,7 +194,7 @@ class Simulation:
             touches.append(Touch(DROP_NAME, DROP_CLASS, (self.avatar.x, self.avatar.y, self.avatar.z),
                                  (-sign * math.cos(yaw), -sign * math.sin(yaw), 0.0)))
         report = StepReport(self.t, result.distance, self.monitor.update(self.t, touches, abs(self.linear)))
-        for goal in self.spec.goals:
+        for goal in (*self.spec.goals, *self.trial_goals):
             if goal.name not in self.goals_reached and math.hypot(self.avatar.x - goal.position[0],
                                                                    self.avatar.y - goal.position[1]) <= goal.radius:
                 self.goals_reached[goal.name] = self.t

@@ -18,6 +18,8 @@ from typing import Any
 
 import yaml
 
+from raspv_common.text_files import display_path, read_yaml_file  # noqa: F401 - display_path is re-exported
+
 WORLDS_DIR = Path(__file__).resolve().parent / "worlds"
 PYBULLET_DATA_PREFIX = "pybullet_data:"
 
@@ -26,18 +28,18 @@ BUILTIN_CLASSES: tuple[str, ...] = ("none", "floor", "wall", "door", "stairs", "
                                     "bed", "shelf", "bin", "person", "obstacle")
 MAX_CLASSES = 256  # labels travel as mono8
 
-FURNITURE_TYPES = ("table", "chair", "sofa", "bed", "shelf", "bin", "door", "box", "cylinder", "rug")
+FURNITURE_TYPES = ("table", "chair", "sofa", "bed", "shelf", "bin", "door", "box", "cylinder", "rug", "laptop")
 FURNITURE_DEFAULT_CLASS = {"box": "obstacle", "cylinder": "obstacle", "rug": "floor"}
 # Typical sizes [length along the object's x (its front faces +x), width, height] in metres.
 FURNITURE_DEFAULT_SIZE = {
     "table": (1.2, 0.8, 0.75), "chair": (0.45, 0.45, 0.9), "sofa": (0.9, 2.0, 0.85), "bed": (2.0, 1.4, 0.55),
     "shelf": (0.35, 1.0, 1.8), "bin": (0.4, 0.4, 0.6), "door": (0.9, 0.04, 2.05), "box": (0.5, 0.5, 0.5),
-    "cylinder": (0.4, 0.4, 1.0), "rug": (2.0, 1.4, 0.01),
+    "cylinder": (0.4, 0.4, 1.0), "rug": (2.0, 1.4, 0.01), "laptop": (0.24, 0.34, 0.24),
 }
 FURNITURE_DEFAULT_COLOR = {
     "table": (0.55, 0.38, 0.22), "chair": (0.35, 0.22, 0.14), "sofa": (0.25, 0.35, 0.55), "bed": (0.45, 0.3, 0.2),
     "shelf": (0.6, 0.45, 0.3), "bin": (0.25, 0.45, 0.3), "door": (0.7, 0.55, 0.38), "box": (0.6, 0.6, 0.62),
-    "cylinder": (0.6, 0.6, 0.62), "rug": (0.6, 0.2, 0.2),
+    "cylinder": (0.6, 0.6, 0.62), "rug": (0.6, 0.2, 0.2), "laptop": (0.72, 0.73, 0.76),
 }
 COLOR_NAMES = {
     "white": (0.95, 0.95, 0.95), "black": (0.08, 0.08, 0.08), "grey": (0.5, 0.5, 0.5), "gray": (0.5, 0.5, 0.5),
@@ -315,15 +317,6 @@ class _Entry:
         return v
 
 
-def display_path(path: Path) -> str:
-    """``path`` relative to the working directory when that is shorter, for messages."""
-    try:
-        rel = os.path.relpath(path)
-        return rel if not rel.startswith("../..") else str(path)
-    except ValueError:
-        return str(path)
-
-
 def resolve_world_path(world: str | Path) -> Path:
     """A shipped world's name (``apartment``) or a path to a YAML file → the file's path."""
     text = str(world).strip()
@@ -331,6 +324,8 @@ def resolve_world_path(world: str | Path) -> Path:
         raise WorldFileError("no world given: name a shipped world (" + ", ".join(shipped_worlds()) + ") or a YAML file")
     candidate = Path(text).expanduser()
     if candidate.suffix in (".yaml", ".yml") or os.sep in text or candidate.exists():
+        if candidate.is_dir():
+            raise WorldFileError(f"{text}: is a directory, not a world file")
         if not candidate.is_file():
             raise WorldFileError(f"{text}: no such world file")
         return candidate.resolve()
@@ -349,17 +344,7 @@ def load_world(world: str | Path) -> WorldSpec:
     """Read and validate a world (shipped name or path). Raises :class:`WorldFileError`."""
     path = resolve_world_path(world)
     src = display_path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise WorldFileError(f"{src}: cannot read ({exc.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f"line {mark.line + 1}: " if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise WorldFileError(f"{src}: {line}invalid YAML ({problem})") from None
+    data = read_yaml_file(path, "world file", WorldFileError, src)
     return parse_world(data, src, path)
 
 

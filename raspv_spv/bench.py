@@ -5,8 +5,9 @@ Part 1 times the whole per-frame path of :class:`~raspv_spv.simulator.PhospheneS
 every frame, and reports the renderer's memory. Part 2 compares, at the same phosphene count
 and output size, our levels → image step with pulse2percept 0.11 ``ScoreboardModel`` on the
 AlphaIMS implant (1500 electrodes), and Part 3 with dynaphos' ``GaussianSimulator`` (CPU
-torch), given the very same phosphene positions. All on one thread (``OMP_NUM_THREADS=1``,
-``torch.set_num_threads(1)``, ``cv2.setNumThreads(1)``).
+torch), given the very same phosphene positions. Parts 4 and 5 time the literature sprite
+models (axon map against pulse2percept's ``AxonMapModel``; :mod:`raspv_spv.bench_sprite_models`).
+All on one thread (``OMP_NUM_THREADS=1``, ``torch.set_num_threads(1)``, ``cv2.setNumThreads(1)``).
 """
 from __future__ import annotations
 
@@ -53,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dynaphos-size", type=int, default=256, help="output size of part 3, px square (default 256)")
     parser.add_argument("--peer-frames", type=int, default=3, help="frames timed per peer (default 3)")
     parser.add_argument("--no-peers", action="store_true", help="skip parts 2 and 3")
+    from raspv_spv import bench_sprite_models
+
+    bench_sprite_models.add_arguments(parser)
 
 
 def _ms(samples: list[float]) -> tuple[float, float]:
@@ -233,6 +237,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_peers:
         part_pulse2percept(args)
         part_dynaphos(args)
+    from raspv_spv import bench_sprite_models
+
+    if not args.no_axon:
+        bench_sprite_models.part_axon_map(args, _ms, _test_frames)
+    if args.sprite_presets:
+        bench_sprite_models.part_presets(args, _ms, _test_frames)
     return 0
 
 

@@ -12,12 +12,14 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from raspv_spv.device import Device, load_device
+from raspv_spv.implant_layout import LayoutSpec
 from raspv_spv.phosphene_map import MapSpec
+from raspv_spv.sprite_models import SpriteSpec
 from raspv_spv.temporal_lut import TemporalLUTConfig
 
 # Device fields a user may override (the value 0 / "" means: keep the device's).
 DEVICE_OVERRIDES = ("num_phosphenes", "fov_deg", "grid", "field", "phosphene_fov_deg", "num_levels",
-                    "pulse_amplitude_ua", "pulse_phase_ms")
+                    "pulse_amplitude_ua", "pulse_phase_ms", "layout", "sprite_model", "rho_um", "axlambda_um")
 # Device fields whose own default (0) is meaningful, so an explicit 0 must be honoured.
 DEVICE_DEFECTS = ("dropout", "noise_px")
 
@@ -46,8 +48,16 @@ class SpvConfig:
 
     def map_spec(self) -> MapSpec:
         d = self.device
+        layout = (LayoutSpec(d.layout, d.implant_x_um, d.implant_y_um, d.implant_rotation_deg, d.cortical_map)
+                  if d.layout else None)
         return MapSpec(self.width, self.height, d.num_phosphenes, d.grid, d.field, d.fov_deg,
-                       d.phosphene_fov_deg, d.dropout, d.noise_px, self.seed)
+                       d.phosphene_fov_deg, d.dropout, d.noise_px, self.seed, layout)
+
+    def sprite_spec(self) -> SpriteSpec:
+        """The sprite model and its parameters; pulses at the display rate (one per frame)."""
+        d = self.device
+        return SpriteSpec(d.sprite_model, d.rho_um, d.axlambda_um, d.eye, d.num_levels, d.max_amplitude_xth,
+                          d.pulse_phase_ms, self.frame_rate, d.pulse_amplitude_ua)
 
     def lut_config(self) -> TemporalLUTConfig:
         d = self.device

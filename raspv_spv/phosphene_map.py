@@ -11,6 +11,14 @@ the top-left corner of the top-left pixel (pixel (col j, row i) has its centre a
   centres inside the inscribed circle. The count is close to, not exactly, N (paper A-B).
 - K_P (eqs. 4–5): f_P = w / (2·tan(FOV/2)), c = (w/2, h/2), square pixels.
 - Phosphene diameter (eq. 6): φ = 2·f_P·tan(FOV_P/2) px.
+- Implant layouts (``MapSpec.layout``): instead of the lattice, one phosphene per electrode of
+  a real device (:mod:`raspv_spv.implant_layout`), placed on the retina or cortex, each where
+  the electrode's phosphene appears in the visual field, projected through K_P
+  (:func:`raspv_spv.retinotopy.visual_field_to_image`); electrodes the cortical map sends
+  nowhere are left out. The spacing reported is the median nearest-neighbour distance.
+- Every map also knows each phosphene's visual-field position (``centres_deg``, dva) and its
+  electrode on the tissue (``electrodes_um``, µm; for the lattice, the retinal point under
+  each centre by Watson 2014), which the tissue sprite models draw from.
 - Defects (Appendix A-C): dropout (round(d·N) phosphenes, a fixed random subset) and Gaussian
   position noise σ px, drawn from ``seed``. They change only what is displayed
   (``display_centres``, ``dropped``), never ``centres``, which the modes sample with. The
@@ -23,6 +31,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
+
+from raspv_spv.implant_layout import LayoutSpec, PlacedImplant
+from raspv_spv.retinotopy import image_to_visual_field, visual_field_to_image, watson_dva_to_ret
 
 GRIDS = ("rectangular", "hexagonal")
 FIELDS = ("rectangular", "circular")
@@ -47,12 +59,14 @@ class MapSpec:
     dropout: float = 0.0
     noise_px: float = 0.0
     seed: int = 0
+    layout: LayoutSpec | None = None
 
     def __post_init__(self) -> None:
         problems = []
         if not (isinstance(self.width, int) and isinstance(self.height, int)) or not (16 <= self.width <= 4096 and 16 <= self.height <= 4096):
             problems.append(f"image size must be integers in [16, 4096] px, got {self.width}x{self.height}")
-        if not isinstance(self.num_phosphenes, int) or not 1 <= self.num_phosphenes <= MAX_PHOSPHENES:
+        if self.layout is None and (not isinstance(self.num_phosphenes, int)
+                                    or not 1 <= self.num_phosphenes <= MAX_PHOSPHENES):
             problems.append(f"num_phosphenes must be an integer in [1, {MAX_PHOSPHENES}], got {self.num_phosphenes!r}")
         if self.grid not in GRIDS:
             problems.append(f"grid must be one of {', '.join(GRIDS)}, got {self.grid!r}")
@@ -142,25 +156,46 @@ class PhospheneMap:
     centres: np.ndarray = field(repr=False)           # (N, 2) P_i, what modes sample with
     display_centres: np.ndarray = field(repr=False)   # (N, 2) P̂_i = P_i + noise
     dropped: np.ndarray = field(repr=False)           # (N,) bool
+    centres_deg: np.ndarray = field(repr=False, default=None)     # (N, 2) visual field of P_i [dva]
+    electrodes_um: np.ndarray = field(repr=False, default=None)   # (N, 2) electrode on the tissue [µm]
+    implant: PlacedImplant | None = field(repr=False, default=None)   # the layout, when there is one
 
     @classmethod
     def build(cls, spec: MapSpec) -> "PhospheneMap":
-        dx, dy = lattice_spacing(spec.width, spec.height, spec.num_phosphenes, spec.grid, spec.field)
-        centres = lattice_centres(spec.width, spec.height, dx, dy, spec.grid, spec.field)
-        if len(centres) == 0:
-            raise MapError(f"no phosphene fits a {spec.width}x{spec.height} image with spacing {dx}x{dy} px")
         focal = phosphene_focal_px(spec.width, spec.fov_deg)
+        cx, cy = spec.width / 2.0, spec.height / 2.0
+        implant = None
+        if spec.layout is not None:
+            implant = PlacedImplant.build(spec.layout)
+            centres = np.stack(visual_field_to_image(implant.centres_deg[:, 0], implant.centres_deg[:, 1],
+                                                     focal, cx, cy), axis=1)
+            dx = dy = int(round(_median_neighbour_distance(centres)))
+            centres_deg = implant.centres_deg
+            electrodes = implant.electrodes_um
+        else:
+            dx, dy = lattice_spacing(spec.width, spec.height, spec.num_phosphenes, spec.grid, spec.field)
+            centres = lattice_centres(spec.width, spec.height, dx, dy, spec.grid, spec.field)
+            if len(centres) == 0:
+                raise MapError(f"no phosphene fits a {spec.width}x{spec.height} image with spacing {dx}x{dy} px")
+            centres_deg = np.stack(image_to_visual_field(centres[:, 0], centres[:, 1], focal, cx, cy), axis=1)
+            electrodes = np.stack(watson_dva_to_ret(centres_deg[:, 0], centres_deg[:, 1]), axis=1)
         order, unit = defect_draws(len(centres), spec.seed)
         dropped = np.zeros(len(centres), dtype=bool)
         dropped[order[: int(round(spec.dropout * len(centres)))]] = True
         display = centres + spec.noise_px * unit
-        for a in (centres, display, dropped):
+        for a in (centres, display, dropped, centres_deg, electrodes):
             a.flags.writeable = False
-        return cls(spec, dx, dy, focal, phosphene_diameter_px(focal, spec.phosphene_fov_deg), centres, display, dropped)
+        return cls(spec, dx, dy, focal, phosphene_diameter_px(focal, spec.phosphene_fov_deg), centres, display, dropped,
+                   centres_deg, electrodes, implant)
 
     @property
     def count(self) -> int:
         return len(self.centres)
+
+    @property
+    def target(self) -> str:
+        """The tissue the phosphenes come from: "retina" (lattice or retinal implant) or "cortex"."""
+        return self.implant.layout.target if self.implant is not None else "retina"
 
     @property
     def width(self) -> int:
@@ -182,3 +217,11 @@ class PhospheneMap:
         x = (self.centres[:, 0] - self.width / 2.0) / f
         y = (self.centres[:, 1] - self.height / 2.0) / f
         return np.stack([x, y, np.ones_like(x)], axis=1)
+
+
+def _median_neighbour_distance(points: np.ndarray) -> float:
+    """Median distance from each point to its nearest neighbour (1 for a single point)."""
+    if len(points) < 2:
+        return 1.0
+    d, _ = cKDTree(points).query(points, k=2)
+    return max(1.0, float(np.median(d[:, 1])))

@@ -7,16 +7,26 @@ saturating conversion to uint8 — overlapping sprites sum and saturate (paper A
 so the cost per frame depends on the number of lit sprite pixels, not on the sprite's shape.
 Dropped phosphenes have empty columns. Output mono8 (H, W) or green-only rgb8 (H, W, 3) for
 headsets (paper §III-E).
+
+Sprite models (:mod:`raspv_spv.sprite_models`) hand the renderer a precomputed
+:class:`~raspv_spv.sprite_models.SpriteBank`: the same product on a grid ``scale`` times
+coarser than the image (smooth tissue sprites), followed by a bilinear resize, plus a product
+at full resolution for the phosphenes too small for that grid; for levelled models (one sprite
+per level) the products take each phosphene's column for its level.
 """
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 import scipy.sparse as sp
 
 from raspv_spv.sprites import Sprite
+
+if TYPE_CHECKING:
+    from raspv_spv.sprite_models import SpriteBank
 
 OUTPUT_FORMATS = ("mono8", "green")
 
@@ -57,36 +67,87 @@ def sprite_matrix(centres: np.ndarray, visible: np.ndarray, width: int, height: 
 
 
 class Renderer:
-    """Precomputed sprites of one map; :meth:`render` turns brightness into an image."""
+    """Precomputed sprites of one map; :meth:`render` turns brightness into an image.
+
+    Built from sprite positions and a :class:`~raspv_spv.sprites.Sprite` (the paper's model),
+    or from a sprite model's bank with :meth:`from_bank`.
+    """
 
     def __init__(self, display_centres: np.ndarray, visible: np.ndarray, width: int, height: int,
                  sprite: Sprite, output_format: str = "mono8") -> None:
+        from raspv_spv.sprite_models import SpriteBank
+
+        matrix = sprite_matrix(display_centres, visible, int(width), int(height), sprite)
+        self._setup(SpriteBank(matrix, int(width), int(height)), output_format)
+        self.sprite = sprite
+
+    @classmethod
+    def from_bank(cls, bank: "SpriteBank", visible: np.ndarray, output_format: str = "mono8") -> "Renderer":
+        """A renderer of ``bank``'s sprites; phosphenes with ``visible`` False are never drawn."""
+        r = cls.__new__(cls)
+        visible = np.asarray(visible, dtype=bool)
+        if not visible.all():
+            keep = sp.diags(np.repeat(visible, bank.levels).astype(np.float32), format="csc")
+            parts = [None if m is None else sp.csc_matrix(m @ keep) for m in (bank.matrix, bank.fine)]
+            for m in parts:
+                if m is not None:
+                    m.eliminate_zeros()
+            bank = type(bank)(parts[0], bank.width, bank.height, bank.scale, bank.levels, bank.build_s, bank.cached,
+                              bank.gain, parts[1])
+        r._setup(bank, output_format)
+        r.sprite = None
+        return r
+
+    def _setup(self, bank: "SpriteBank", output_format: str) -> None:
         if output_format not in OUTPUT_FORMATS:
             raise ValueError(f"output format must be one of {', '.join(OUTPUT_FORMATS)}, got {output_format!r}")
-        self.width, self.height = int(width), int(height)
-        self.count = len(display_centres)
-        self.sprite = sprite
+        self.bank = bank
+        self.width, self.height = bank.width, bank.height
+        self.scale, self.levels = bank.scale, bank.levels
+        self.count = bank.matrix.shape[1] // bank.levels
         self.output_format = output_format
-        self.matrix = sprite_matrix(display_centres, visible, self.width, self.height, sprite)
+        self.matrix = bank.matrix
+        self.fine = bank.fine
+        self._coarse = bank.coarse_shape
         self._zeros = np.zeros((self.height, self.width), np.uint8)
 
     @property
     def nbytes(self) -> int:
-        """Memory held by the precomputed matrix."""
-        m = self.matrix
-        return int(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes + self._zeros.nbytes)
+        """Memory held by the precomputed matrices."""
+        return int(self.bank.nbytes + self._zeros.nbytes)
 
-    def render_mono(self, brightness: np.ndarray) -> np.ndarray:
-        """(H, W) uint8 image for ``brightness`` (N,) in [0, 1] (values above 1 saturate)."""
+    def render_mono(self, brightness: np.ndarray, levels: np.ndarray | None = None) -> np.ndarray:
+        """(H, W) uint8 image for ``brightness`` (N,) in [0, 1] (values above 1 saturate).
+        Levelled banks also need each phosphene's sprite level ``levels`` (N,) in 1 … L (0:
+        nothing drawn); its brightness then scales that level's sprite."""
         b = np.asarray(brightness, dtype=np.float32)
         if b.shape != (self.count,):
             raise ValueError(f"expected brightness for {self.count} phosphenes, got shape {b.shape}")
-        summed = self.matrix @ b
-        return cv2.convertScaleAbs(summed.reshape(self.height, self.width))
+        if self.levels == 1:
+            summed = self.matrix @ b
+            fine = self.fine @ b if self.fine is not None else None
+        else:
+            if levels is None:
+                raise ValueError("this renderer draws one sprite per level: pass the phosphenes' levels")
+            lv = np.asarray(levels)
+            on = np.flatnonzero((lv > 0) & (b > 0))
+            cols = on * self.levels + np.minimum(lv[on].astype(np.int64), self.levels) - 1
+            summed = self.matrix[:, cols] @ b[on] if on.size else np.zeros(self.matrix.shape[0], np.float32)
+            fine = None
+            if self.fine is not None:
+                fine = self.fine[:, cols] @ b[on] if on.size else np.zeros(self.fine.shape[0], np.float32)
+        image = summed.reshape(self._coarse)
+        if self.scale > 1:
+            rows, cols = self._coarse
+            image = cv2.resize(image, (cols * self.scale, rows * self.scale), interpolation=cv2.INTER_LINEAR)
+            image = image[:self.height, :self.width]
+        if fine is not None:
+            image = image + fine.reshape(self.height, self.width)
+        return cv2.convertScaleAbs(image)
 
-    def render(self, brightness: np.ndarray) -> np.ndarray:
+    def render(self, brightness: np.ndarray, levels: np.ndarray | None = None) -> np.ndarray:
         """The image in this renderer's output format: mono8 (H, W) or green rgb8 (H, W, 3)."""
-        mono = self.render_mono(brightness)
+        mono = self.render_mono(brightness, levels)
         if self.output_format == "green":
             return cv2.merge([self._zeros, mono, self._zeros])
         return mono

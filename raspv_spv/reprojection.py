@@ -189,6 +189,10 @@ class FrameHistory:
             while len(self._frames) > 1 and self._frames[1].stamp <= horizon:
                 self._frames.popleft()
 
+    def newest(self) -> DisplayFrame | None:
+        with self._lock:
+            return self._frames[-1] if self._frames else None
+
     def pick(self, display_stamp: float, latency_s: float = 0.0) -> DisplayFrame | None:
         """The newest frame captured at or before ``display_stamp − latency_s`` (with no latency:
         the newest frame, whatever the clocks); None when there is none yet."""
@@ -230,14 +234,20 @@ class DisplayView:
     def add_frame(self, frame: DisplayFrame) -> None:
         self.frames.add(frame, self.latency_s)
 
+    def newest_frame(self) -> DisplayFrame | None:
+        """The newest frame added (whatever the device latency), or None."""
+        return self.frames.newest()
+
     def levels_at(self, sim, map_id: int, display_stamp: float) -> tuple[np.ndarray, float] | None:
         """(levels (N,) uint8, the frame's capture stamp) to show at ``display_stamp`` with
         simulator ``sim`` (a :class:`~raspv_spv.simulator.PhospheneSimulator`) and map
         ``map_id``; None when no frame of this map is due yet, or the current mode cannot run
         on it (a scene mode switched on before the scene arrived)."""
         frame = self.frames.pick(display_stamp, self.latency_s)
-        if frame is None or frame.map_id != map_id or frame.levels.shape != (sim.count,):
+        if frame is None:
             return None
+        if (frame.map_id != map_id or frame.levels.shape != (sim.count,)) and frame.simulator in (sim, None):
+            return None                 # levels of another map and no other simulator to re-run
         R = None
         if self.reprojection:
             R = self.tracker.capture_from_display(frame.stamp, display_stamp - self.latency_s)

@@ -11,7 +11,15 @@ there is no second implementation. A frame goes through:
    how bright it can get, the pulse history how much of it is perceived now, and a phosphene
    switched off fades from the level it had); without it brightness = level/(N_L−1);
    dropped phosphenes are 0;
-3. the renderer → mono8 or green rgb8 image (:mod:`raspv_spv.renderer`).
+3. the renderer → mono8 or green rgb8 image (:mod:`raspv_spv.renderer`), whose sprites the
+   device's sprite model precomputed (:mod:`raspv_spv.sprite_models`: the paper's Gaussian,
+   scoreboard, axon map, biphasic axon map, dynaphos); levelled models draw each phosphene
+   with the sprite of its latest pulse's level.
+
+Building is split so a caller can refuse a configuration at once and build the rest in the
+background (the spv node does): :func:`check_config` builds the map and the mode (cheap, and
+where configuration mistakes show); the constructor adds sprites and the temporal table,
+which may take seconds the first time (both are cached on disk).
 
 Offline use::
 
@@ -32,7 +40,8 @@ from raspv_spv.modes import mode_class, overlay_class
 from raspv_spv.phosphene_map import PhospheneMap
 from raspv_spv.renderer import Renderer
 from raspv_spv.sampling import Sampling
-from raspv_spv.sprites import GaussianSprite, Sprite
+from raspv_spv.sprite_models import build_sprite_bank
+from raspv_spv.sprites import Sprite
 from raspv_spv.temporal_lut import TemporalState, load_table
 
 
@@ -57,12 +66,16 @@ class PhospheneSimulator:
     computed; tables are cached on disk); :meth:`step` is the per-frame work.
     """
 
-    def __init__(self, config: SpvConfig, sprite: Sprite | None = None) -> None:
+    def __init__(self, config: SpvConfig, sprite: Sprite | None = None, phosphene_map: PhospheneMap | None = None) -> None:
         self.config = config
-        self.map = PhospheneMap.build(config.map_spec())
-        self.sprite = sprite or GaussianSprite(self.map.diameter_px)
-        self.renderer = Renderer(self.map.display_centres, ~self.map.dropped, config.width, config.height,
-                                 self.sprite, config.output_format)
+        self.map = phosphene_map if phosphene_map is not None else check_config(config)
+        self.sprite = sprite
+        if sprite is not None:                          # a custom shape (e.g. a BitmapSprite)
+            self.renderer = Renderer(self.map.display_centres, ~self.map.dropped, config.width, config.height,
+                                     sprite, config.output_format)
+        else:
+            bank = build_sprite_bank(self.map, config.sprite_spec())
+            self.renderer = Renderer.from_bank(bank, ~self.map.dropped, config.output_format)
         self.mode = mode_class(config.mode)(config.mode_settings)
         self.overlays = [overlay_class(name)(config.mode_settings) for name in config.overlays]
         self.num_levels = config.device.num_levels
@@ -70,6 +83,7 @@ class PhospheneSimulator:
         self._level_scale = np.float32(1.0 / (self.num_levels - 1))
         self.temporal = TemporalState(load_table(config.lut_config()), self.map.count) if config.temporal else None
         self._samplings: dict[CameraIntrinsics, Sampling] = {}
+        self._pulse_levels = np.zeros(self.map.count, np.uint8)   # level of each phosphene's latest pulse
 
     # -- configuration --------------------------------------------------------------------------
     @property
@@ -138,11 +152,22 @@ class PhospheneSimulator:
         b = np.asarray(levels, dtype=np.float32) * self._level_scale
         if self.temporal is not None:
             b = self.temporal.step(b, frames)
+            if self.renderer.levels > 1:
+                self._pulse_levels = np.rint(self.temporal.amplitude * (self.num_levels - 1)).astype(np.uint8)
+        elif self.renderer.levels > 1:
+            self._pulse_levels = np.asarray(levels, dtype=np.uint8)
         b *= self._visible
         return b
 
     def render(self, brightness: np.ndarray) -> np.ndarray:
-        """The phosphene image of ``brightness`` (mono8 (H, W) or green rgb8 (H, W, 3))."""
+        """The phosphene image of ``brightness`` (mono8 (H, W) or green rgb8 (H, W, 3)); a
+        levelled sprite model draws each phosphene with the sprite of its latest pulse's level,
+        scaled by the perceived fraction of it."""
+        if self.renderer.levels > 1:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                gain = np.where(self._pulse_levels > 0,
+                                brightness / (self._pulse_levels * self._level_scale), 0.0).astype(np.float32)
+            return self.renderer.render(gain, self._pulse_levels)
         return self.renderer.render(brightness)
 
     def step(self, inputs: FrameInputs, frames: int = 1) -> SpvFrame:
@@ -155,6 +180,48 @@ class PhospheneSimulator:
         """Forget the pulse histories."""
         if self.temporal is not None:
             self.temporal.reset()
+
+
+def describe_layout(sim: PhospheneSimulator) -> str:
+    """'hexagonal (rectangular field)' or 'argus_ii (retina at (x, y) µm, 30 deg)' for logs."""
+    d, implant = sim.config.device, sim.map.implant
+    if implant is None:
+        return f"{d.grid} ({d.field} field)"
+    s = implant.spec
+    out = f"{implant.layout.name} ({implant.layout.target} at ({s.x_um:g}, {s.y_um:g}) um, {s.rotation_deg:g} deg"
+    if implant.left_out:
+        out += f"; {len(implant.left_out)} electrode(s) outside the visual-field map left out"
+    return out + ")"
+
+
+def describe_sprites(sim: PhospheneSimulator) -> str:
+    """The sprite model and its parameters, for logs."""
+    spec, bank = sim.config.sprite_spec(), sim.renderer.bank
+    if sim.sprite is not None:
+        return f"{type(sim.sprite).__name__} sprites"
+    if spec.model == "gaussian":
+        return f"gaussian sprites {sim.config.device.phosphene_fov_deg:g} deg"
+    target = sim.map.target
+    parts = {"scoreboard": f"rho {spec.rho(target, sim.map):.0f} um",
+             "axon_map": f"rho {spec.rho(target):g} um, axlambda {spec.axlambda():g} um",
+             "biphasic_axon_map": f"rho {spec.rho(target):g} um, axlambda {spec.axlambda():g} um, "
+                                  f"up to {spec.max_amplitude_xth:g} xTh",
+             "dynaphos": f"up to {spec.current_ua:g} uA"}[spec.model]
+    how = "cached" if bank.cached else f"built in {bank.build_s:.1f} s"
+    grid = f"1/{bank.scale} resolution" + (" and full resolution for the smallest" if bank.fine is not None else "")
+    return f"{spec.model} sprites ({parts}; {bank.nnz} px at {grid}, {bank.nbytes / 1e6:.1f} MB, {how})"
+
+
+def check_config(config: SpvConfig) -> PhospheneMap:
+    """The map of ``config``, after checking everything that does not take long: the map (or
+    the implant layout), the sprite model against it, the mode and overlays. Raises
+    ``ValueError`` (or a subclass) naming what is wrong."""
+    phosphene_map = PhospheneMap.build(config.map_spec())
+    config.sprite_spec().check(phosphene_map)
+    mode_class(config.mode)(config.mode_settings)
+    for name in config.overlays:
+        overlay_class(name)(config.mode_settings)
+    return phosphene_map
 
 
 def render_frame(color: np.ndarray | None, depth: np.ndarray | None, camera: CameraIntrinsics,

@@ -11,7 +11,6 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import map_coordinates
 
 
 class Sprite(ABC):
@@ -88,6 +87,8 @@ class BitmapSprite(Sprite):
         return self.draw_scale * self.diameter_px / 2.0
 
     def weights(self, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        from scipy.ndimage import map_coordinates   # only bitmap sprites need it (slow import)
+
         img = np.asarray(self.image, dtype=np.float64)
         n = img.shape[0]
         scale = n / (2.0 * self.radius_px)            # bitmap px per image px

@@ -13,16 +13,25 @@ reprojection), advances the temporal model and publishes ``/spv/image`` and ``/s
 whatever the inputs do: it never waits for a camera frame, and ticks it could not run on time
 are counted as dropped frames (the temporal model then advances by the frames that elapsed)
 and reported every 10 s.
-``/spv/map`` is latched and re-published whenever the map changes. Parameter changes build a
-complete new simulator and swap it in, or are refused with the reason; bad input images are
-skipped with one rate-limited warning.
+With ``headless`` there is no display loop: each computed frame is published at once with its
+input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.
+``/spv/map`` is latched and re-published whenever the map changes. A parameter change is
+checked at once (map, implant layout, sprite model, mode: refused with the reason when it
+cannot be built) and the new simulator — sprites and temporal table can take seconds the first
+time — is built in the background (:mod:`raspv_spv.background_build`; what is not in the disk
+caches by a lower-priority subprocess, :mod:`raspv_spv.prebuild`) while the old one keeps
+displaying; it is swapped in between two display ticks, with levels already computed from the
+latest frame, so the display never stalls. Bad input images are skipped with one rate-limited
+warning.
 """
 from __future__ import annotations
 
 import array
+import os
 import statistics
 import sys
 from collections import deque
+from dataclasses import dataclass
 import threading
 import time
 
@@ -30,6 +39,7 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, QuaternionStamped
 from rclpy._rclpy_pybind11 import RCLError
 from nav_msgs.msg import Odometry
+from rclpy.parameter import Parameter
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 
@@ -38,22 +48,27 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
-from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
-from raspv_msgs.msg import StairDetection
+from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_msg import structure_from_msg
+from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
-from raspv_spv.config import config_from_node_params
+from raspv_spv import display_budget
+from raspv_spv.background_build import BackgroundBuilder
+from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
-from raspv_spv.phosphene_map import MapError
+from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
+from raspv_spv.prebuild import missing_from_cache, prebuild_in_subprocess
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
 from raspv_spv.reprojection import DisplayFrame, DisplayView
-from raspv_spv.simulator import InputError, PhospheneSimulator
+from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, describe_layout, describe_sprites
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
 VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
+STARTUP_RATE_CHECK_S = 3.0     # the start-up configuration's display budget is checked this long after start
 _BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
 
 
@@ -62,11 +77,31 @@ def _reason(exc: Exception) -> str:
     return str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
 
 
-def build_simulator(params: dict) -> PhospheneSimulator:
-    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
+def checked_config(params: dict) -> tuple[SpvConfig, PhospheneMapCore]:
+    """The configuration and map of the node's parameter values, checked (raises one of
+    ``_BUILD_ERRORS``); quick — what takes long is left to :class:`PhospheneSimulator`."""
     if params["edge_low"] > params["edge_high"]:
         raise ValueError(f"edge_low ({params['edge_low']}) must not exceed edge_high ({params['edge_high']})")
-    return PhospheneSimulator(config_from_node_params(params))
+    config = config_from_node_params(params)
+    return config, check_config(config)
+
+
+def build_simulator(params: dict) -> PhospheneSimulator:
+    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
+    config, phosphene_map = checked_config(params)
+    return PhospheneSimulator(config, phosphene_map=phosphene_map)
+
+
+@dataclass
+class _Rebuild:
+    """A checked parameter change waiting for its simulator (built in the background)."""
+
+    params: dict
+    config: SpvConfig
+    phosphene_map: PhospheneMapCore
+    map_id: int
+    sim: PhospheneSimulator | None = None
+    levels: tuple[DisplayFrame, np.ndarray] | None = None   # (newest frame, its levels by the new simulator)
 
 
 class SpvNode(RaspvNode):
@@ -78,6 +113,13 @@ class SpvNode(RaspvNode):
             raise ConfigurationError(_reason(exc)) from None
         self.map_id = 1
         self._sim_lock = threading.Lock()
+        # run-time changes: checked at once, built in the background, swapped in by _swap_in
+        self._applied_params = dict(self.params)
+        self._requested = (self.sim.config.map_spec(), self.map_id)
+        self._swap_pending = self._map_pending = False     # ROS-side follow-ups of a swap
+        self._failed: tuple[_Rebuild, Exception] | None = None
+        self._builder = BackgroundBuilder(self._build, self._swap_in, self._build_failed, name="spv-build")
+        self._after_build = self.create_guard_condition(self._on_build_done)
         # latest inputs and the levels computed from them
         self.color = self.depth = self.pose = None
         self.scene = self.scene_labels = None          # scene perception (scene modes)
@@ -104,41 +146,125 @@ class SpvNode(RaspvNode):
         # enough to drop 7 % of the frames in the demo graph.
         self._stop_display = threading.Event()
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
-        self._display_thread.start()
+        self._headless_stamp: float | None = None
+        if not self.params["headless"]:
+            self._display_thread.start()
         self.create_timer(REPORT_PERIOD_S, self.report)
+        threading.Thread(target=self._check_rate_after_start, name="spv-rate-check", daemon=True).start()
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
 
     # -- configuration ------------------------------------------------------------------------
     def _describe(self, sim: PhospheneSimulator) -> str:
         c = sim.config
-        return (f"{c.device.name}: {sim.count} {c.device.grid} phosphenes ({c.device.field} field), "
-                f"FOV {c.device.fov_deg:g} deg, phosphene {c.device.phosphene_fov_deg:g} deg, {c.width}x{c.height} "
+        return (f"{c.device.name}: {sim.count} {describe_layout(sim)} phosphenes, "
+                f"FOV {c.device.fov_deg:g} deg, {describe_sprites(sim)}, {c.width}x{c.height} "
                 f"{c.output_format}, mode {c.mode}, temporal {c.temporal_model if c.temporal else 'off'}, "
                 f"{c.frame_rate:g} Hz")
 
     def on_parameters(self, changes):
         merged = {**self.params, **changes}
+        verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
+        if verdict is not None and verdict.refuse:
+            return verdict.message
         try:
-            new = build_simulator(merged)
+            config, phosphene_map = checked_config(merged)
         except _BUILD_ERRORS as exc:
             return _reason(exc)
-        old = self.sim
-        map_changed = new.config.map_spec() != old.config.map_spec()
-        with self._sim_lock:
-            new.adopt_state(old)
-            if map_changed:
-                self.map_id += 1
-            self.sim = new
+        spec, map_id = self._requested
+        if config.map_spec() != spec:                # one map id per accepted change of the map
+            map_id += 1
+        self._requested = (config.map_spec(), map_id)
+        self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
         if "reprojection" in changes or "device_latency_ms" in changes:
             self.view.configure(merged["reprojection"], merged["device_latency_ms"])
-        self._update_subscriptions(new.needs, merged["reprojection"])
-        if map_changed:
-            self.publish_map()
-        self.get_logger().info(self._describe(new))
+            self._update_subscriptions(self.sim.needs, merged["reprojection"])
+        if verdict is not None and verdict.warn:
+            self.get_logger().warning(verdict.message)
         return None
+
+    # -- background rebuild (worker thread) ---------------------------------------------------
+    def _build(self, request: _Rebuild) -> _Rebuild:
+        """Build the new simulator and its levels for the latest frame, so the swap shows the
+        new configuration at once instead of blank phosphenes until the next camera frame.
+        What is not in the disk caches yet is built by a lower-priority subprocess first, so
+        this process only reads it back (no GIL or CPU taken from the display thread)."""
+        missing = missing_from_cache(request.config, request.phosphene_map)
+        if missing:
+            self.get_logger().info(f"building the {' and '.join(missing)} of {request.config.device.name} "
+                                   "in the background")
+            prebuild_in_subprocess(request.config)
+        request.sim = PhospheneSimulator(request.config, phosphene_map=request.phosphene_map)
+        frame = self.view.newest_frame()
+        if frame is not None:
+            try:
+                request.levels = (frame, request.sim.levels(frame.inputs))
+            except InputError:
+                pass
+        return request
+
+    def _swap_in(self, request: _Rebuild, _result) -> None:
+        with self._sim_lock:
+            old = self.sim
+            request.sim.adopt_state(old)
+            map_changed = request.map_id != self.map_id
+            self.sim, self.map_id = request.sim, request.map_id
+            if request.levels is not None and self.view.newest_frame() is request.levels[0]:
+                frame, levels = request.levels
+                self.view.add_frame(DisplayFrame(frame.stamp, frame.inputs, levels, request.map_id, request.sim))
+            self._applied_params = dict(request.params)
+            self._swap_pending = True
+            self._map_pending |= map_changed
+        self._after_build.trigger()
+
+    def _build_failed(self, request: _Rebuild, exc: Exception) -> None:
+        self._failed = (request, exc)
+        self._after_build.trigger()
+
+    def _on_build_done(self) -> None:
+        """Executor thread: subscriptions, /spv/map and the log after a swap; after a failed
+        build, the parameters go back to the values on display."""
+        with self._sim_lock:
+            swapped, publish = self._swap_pending, self._map_pending
+            self._swap_pending = self._map_pending = False
+        if swapped:
+            self._update_subscriptions(self.sim.needs)
+            if publish:
+                self.publish_map()
+            self.get_logger().info(self._describe(self.sim))
+        failed, self._failed = self._failed, None
+        if failed is not None:
+            request, exc = failed
+            self.get_logger().error(f"could not build {request.config.device.name}: {exc}; "
+                                    f"keeping {self.sim.config.device.name}")
+            back = {k: v for k, v in self._applied_params.items() if self.params.get(k) != v}
+            if back:
+                self.set_parameters([Parameter(k, value=v) for k, v in back.items()])
+
+    def display_rate_verdict(self, params: dict) -> display_budget.RateVerdict | None:
+        """Can ``params`` run at their display rate here? (:mod:`raspv_spv.display_budget`: a cost
+        model measured on this machine, plus the overhead measured on this node's display loop)."""
+        try:
+            current = display_budget.load_of_config(self.sim.config)
+            overhead = display_budget.observed_overhead_ms(list(self._tick_ms), current)
+        except ValueError:
+            overhead = 0.0
+        return display_budget.check_node_params(params, overhead_ms=overhead)
+
+    def _check_rate_after_start(self) -> None:
+        """Once, a few seconds after start (low priority thread): warn when the configuration
+        the node started with cannot keep its display rate."""
+        if self._stop_display.wait(STARTUP_RATE_CHECK_S):
+            return
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)   # this thread only (Linux)
+        except (AttributeError, OSError):
+            pass
+        verdict = self.display_rate_verdict(dict(self.params))
+        if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
+            self.get_logger().warning(verdict.message)
 
     def _update_subscriptions(self, needs: frozenset[str], reprojection: bool | None = None) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional) and those the
@@ -152,10 +278,14 @@ class SpvNode(RaspvNode):
                   "scene": (SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene),
                   "scene_labels": (Image, topics.SCENE_LABELS, self.on_scene_labels),
                   "nav_path": (PathMsg, topics.NAV_PATH, self.on_nav_path),
-                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs)}
+                  "stairs": (StairDetection, topics.STAIRS, self.on_stairs),
+                  "segmentation": (Image, topics.SEGMENTATION_LABELS, self.on_segmentation),
+                  "segmentation_classes": (ClassNames, topics.SEGMENTATION_CLASSES, self.on_segmentation_classes),
+                  "nav_guidance": (NavGuidance, topics.NAV_GUIDANCE, self.on_nav_guidance)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
-                self._subs[name] = self.create_subscription(msg_type, topic, callback, SENSOR_QOS)
+                qos = LATCHED_QOS if name == "segmentation_classes" else SENSOR_QOS
+                self._subs[name] = self.create_subscription(msg_type, topic, callback, qos)
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
         unsupported = sorted(set(needs) - set(wanted) - {"camera"})
@@ -217,12 +347,38 @@ class SpvNode(RaspvNode):
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
 
+    def on_nav_guidance(self, msg: NavGuidance) -> None:
+        """The navigation assistant's guidance (world frame) for the guidance overlay."""
+        self.extras["nav_guidance"] = guidance_from_msg(msg)
+
     def on_stairs(self, msg: StairDetection) -> None:
         """The newest staircase detection (camera frame of its depth image) for the stairs overlay;
         each frame moves it into its own camera frame (:meth:`_finish_frame`)."""
         stair = staircase_from_msg(msg)
         self.extras["stairs"] = [] if stair is None else [stair]
         self.stamps["stairs"] = stamp_to_seconds(msg.header.stamp)
+
+    def on_segmentation(self, msg: Image) -> None:
+        """Keep the last label images with their stamps (the highlight overlay takes the one of
+        its frame); when the labels of the frame the levels came from arrive late, redo them."""
+        try:
+            labels = image_to_array(msg)
+        except ImageEncodingError as exc:
+            self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_LABELS}: {exc}")
+            return
+        stamp = stamp_to_seconds(msg.header.stamp)
+        self.extras["segmentation"] = (tuple(self.extras.get("segmentation", ())) + ((stamp, labels),))[-8:]
+        newest = self.view.newest_frame()
+        if newest is not None and abs(newest.stamp - stamp) < 1e-6:
+            which = next((k for k, t in self.stamps.items() if abs(t - stamp) < 1e-6), None)
+            if which is not None:
+                self._frame_arrived(which)
+
+    def on_segmentation_classes(self, msg: ClassNames) -> None:
+        try:
+            self.extras["segmentation_classes"] = classes_from_msg(msg)
+        except ValueError as exc:
+            self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_CLASSES}: {exc}")
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)
@@ -259,6 +415,8 @@ class SpvNode(RaspvNode):
             if now - self._waiting_since > 1.0:          # not just the first frame overtaking the info
                 self.warn_throttled("no-info", f"images arrive but no camera info on {topics.CAMERA_INFO}; "
                                                "phosphenes stay off until it comes")
+            if self.params["headless"]:
+                self._headless_tick(self.stamps[which])
             return
         stamp = self.stamps[which]
 
@@ -294,38 +452,58 @@ class SpvNode(RaspvNode):
             levels = sim.levels(inputs)
         except InputError as exc:
             self.warn_throttled("input", f"cannot use this frame: {exc}")
+            if self.params["headless"]:
+                self._headless_tick(inputs.stamp)     # a frame still goes out: controllers wait for it
             return
         self.view.add_frame(DisplayFrame(inputs.stamp, inputs, levels, map_id, sim))
+        if self.params["headless"]:
+            self._headless_tick(inputs.stamp)
+
+    def _headless_tick(self, stamp: float) -> None:
+        """Publish the frame of input time ``stamp`` [s], the temporal model advancing by the
+        display frames elapsed since the previous one."""
+        last, self._headless_stamp = self._headless_stamp, stamp
+        frames = 1 if last is None else max(1, int(round((stamp - last) * self.params["rate"])))
+        self.tick(frames, stamp)
 
     # -- display ------------------------------------------------------------------------------
-    def tick(self) -> None:
+    def tick(self, frames: int | None = None, stamp: float | None = None) -> None:
+        """One display frame (headless: ``frames`` elapsed, stamped ``stamp`` s)."""
         if not self.context.ok():                  # shutting down: the publishers are gone
             return
         t0 = time.monotonic()
-        frames = 1
-        if self._last_tick is not None:
+        if frames is not None:
+            pass
+        elif self._last_tick is None:
+            frames = 1
+        else:
             period = 1.0 / self.params["rate"]
             frames = max(1, int(round((t0 - self._last_tick) / period)))
             self._dropped += frames - 1
         self._last_tick = t0
-        header = self.header("phosphene")
+        header = self.header("phosphene", stamp)
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
             shown = self.view.levels_at(sim, map_id, stamp_to_seconds(header.stamp))
             levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
             brightness = sim.brightness(levels, frames)
-        image = sim.render(brightness)
-        msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
-        msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
-        msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
-        msg.data = array.array("B", image.tobytes())
+        if stamp is not None:
+            source_stamp = stamp                    # headless: the frame answers this input
+        msg = None
+        if stamp is None or self.pub_image.get_subscription_count():   # headless: only when watched
+            image = sim.render(brightness)
+            msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
+            msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
+            msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
+            msg.data = array.array("B", image.tobytes())
         frame = PhospheneFrame(header=header, map_id=map_id, mode=sim.config.mode, overlays=list(sim.config.overlays),
                                temporal=sim.temporal is not None)
         frame.source_stamp = self.header("", source_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())
         frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
         try:
-            self.pub_image.publish(msg)
+            if msg is not None:
+                self.pub_image.publish(msg)
             self.pub_frame.publish(frame)
         except RCLError:
             if self.context.ok():
@@ -377,8 +555,10 @@ class SpvNode(RaspvNode):
         self.pub_map.publish(msg)
 
     def close(self) -> None:
+        self._builder.close()
         self._stop_display.set()
-        self._display_thread.join(timeout=2.0)
+        if self._display_thread.is_alive():
+            self._display_thread.join(timeout=2.0)
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "

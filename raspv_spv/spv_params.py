@@ -9,7 +9,8 @@ from raspv_common.params import Param
 from raspv_spv.modes import MODES, OVERLAYS
 
 PARAMS = [
-    Param("device", "default", "device preset (default, argus_ii, argus_iii, alpha_ims, optimist) or a device YAML path"),
+    Param("device", "default", "device preset (default, argus_ii, argus_ii_axon, alpha_ims, prima, orion, ... see "
+          "config/devices) or a device YAML path", file_kind="device"),
     Param("num_phosphenes", 0, "number of phosphenes N (0: the device's)", minimum=0, maximum=20000),
     Param("fov_deg", 0.0, "prosthesis horizontal field of view (0: the device's)", minimum=0.0, maximum=160.0, unit="deg"),
     Param("phosphene_fov_deg", 0.0, "phosphene diameter (0: the device's)", minimum=0.0, maximum=10.0, unit="deg"),
@@ -33,6 +34,15 @@ PARAMS = [
     Param("pulse_amplitude_ua", 0.0, "biphasic pulse amplitude of an 'on' frame (0: the device's)", minimum=0.0,
           maximum=2000.0, unit="uA"),
     Param("pulse_phase_ms", 0.0, "duration of each pulse phase (0: the device's)", minimum=0.0, maximum=5.0, unit="ms"),
+    Param("layout", "", "implant electrode layout (config/layouts name or YAML path; '': the device's)"),
+    Param("sprite_model", "", "phosphene shape ('': the device's)",
+          choices=("", "gaussian", "scoreboard", "axon_map", "biphasic_axon_map", "dynaphos")),
+    Param("rho_um", 0.0, "current spread of the tissue sprite models (0: the device's)", minimum=0.0, maximum=10000.0,
+          unit="um"),
+    Param("axlambda_um", 0.0, "axon-map decay along the axon (0: the device's)", minimum=0.0, maximum=10000.0,
+          unit="um"),
+    Param("headless", False, "no display loop: publish each computed frame at once, stamped with its input, the "
+          "temporal model advancing by the input's elapsed time (scripted subjects, sweeps in sim time)", dynamic=False),
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("reprojection", True, "re-sample the last camera frame for the newest head orientation at every display tick "
           "(needs /head/orientation to turn the camera: sim, head-mounted camera; off for recordings)"),
@@ -44,4 +54,12 @@ PARAMS = [
     Param("edge_low", 50.0, "Canny lower threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("edge_high", 150.0, "Canny upper threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("chess_tile", 0.5, "checkerboard tile size (chess modes)", minimum=0.05, maximum=5.0, unit="m"),
+    Param("highlight.classes", ["person"], "classes the highlight overlay lights (names or synonyms of the "
+          "segmentation's classes)"),
+    Param("highlight.pick", "all", "highlight every pixel of the classes, or one instance: the largest or the nearest",
+          choices=("all", "largest", "nearest")),
+    Param("highlight.dim", 0.5, "level factor of the phosphenes the highlight overlay does not light", minimum=0.0,
+          maximum=1.0),
+    Param("highlight.max_age", 0.2, "use segmentation labels at most this far from the frame's stamp", minimum=0.0,
+          maximum=5.0, unit="s"),
 ]

@@ -26,11 +26,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 
 def _leaky(x: np.ndarray, a: float) -> np.ndarray:
     """Forward-Euler leaky integrator r[n] = r[n−1] + a·(x[n] − r[n−1]), r[−1] = 0, along the last axis."""
+    # imported here: scipy.signal takes ~0.8 s to import and is needed only to build a look-up
+    # table (cached on disk), not to start a node that loads one
+    from scipy.signal import lfilter
+
     return lfilter([a], [1.0, -(1.0 - a)], x, axis=-1)
 
 

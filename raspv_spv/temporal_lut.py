@@ -106,10 +106,15 @@ def cache_dir() -> Path:
     return Path(os.environ.get("RASPV_CACHE_DIR") or Path.home() / ".cache" / "raspv") / "temporal_lut"
 
 
+def cached_table_path(config: TemporalLUTConfig) -> Path:
+    """Where the table of ``config`` is cached."""
+    return cache_dir() / f"{config.model}-{config.key()}.npy"
+
+
 def load_table(config: TemporalLUTConfig, use_cache: bool = True) -> np.ndarray:
     """The table for ``config``: read from the disk cache, or built and written there.
     An unwritable cache only costs the rebuild next time."""
-    path = cache_dir() / f"{config.model}-{config.key()}.npy"
+    path = cached_table_path(config)
     if use_cache and path.exists():
         try:
             table = np.load(path, allow_pickle=False)

@@ -36,8 +36,10 @@ command -v c++ >/dev/null 2>&1 || command -v g++ >/dev/null 2>&1 || die "a C++ c
 
 # --- what changed? ---------------------------------------------------------------------------
 hash_of() { cat "$@" | sha256sum | cut -c1-16; }
-DEPS_HASH=$(hash_of "$ROOT"/requirements/*.txt "$ROOT/pyproject.toml" "$ROOT/tools/install.sh")
-MSGS_HASH=$(cd "$ROOT" && hash_of raspv_msgs/CMakeLists.txt raspv_msgs/package.xml raspv_msgs/msg/*.msg)
+# The editable install maps each top-level package (raspv_*) by name: a new package reinstalls.
+DEPS_HASH=$( { cat "$ROOT"/requirements/*.txt "$ROOT/pyproject.toml" "$ROOT/tools/install.sh";
+               cd "$ROOT" && ls -d raspv_*/; } | sha256sum | cut -c1-16)
+MSGS_HASH=$(cd "$ROOT" && hash_of raspv_msgs/CMakeLists.txt raspv_msgs/package.xml raspv_msgs/msg/*.msg raspv_msgs/srv/*.srv)
 if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$DEPS_HASH" ] && [ -f "$MSG_STAMP" ] && [ "$(cat "$MSG_STAMP")" = "$MSGS_HASH" ]; then
   say "up to date ($VENV)"
   exit 0

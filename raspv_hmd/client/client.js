@@ -15,7 +15,7 @@
   const DRAG_RAD_PER_PX = 0.25 * Math.PI / 180;
   const MAX_YAW = Math.PI / 2, MAX_PITCH = Math.PI / 3;
   const STICK_DEADZONE = 0.15, STICK_HEAD_RATE = Math.PI / 2;   // rad/s at full deflection
-  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,123456789".split(""));
+  const VIEWER_KEYS = new Set("+-*/vVnNoOlLjJ.,123456789tTy".split(""));   // t/T/y: highlight
   const MOVE_KEYS = {
     w: [1, 0], arrowup: [1, 0], s: [-1, 0], arrowdown: [-1, 0],
     a: [0, 1], arrowleft: [0, 1], d: [0, -1], arrowright: [0, -1],
@@ -36,6 +36,7 @@
     rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
     head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
     lastStatus: "", xr: false, orientation: false,
+    instructions: null, trialId: null, startedId: null, experimentSent: [],
   };
   window.raspvClient = S;
 
@@ -89,6 +90,10 @@
       showMessage(m.text, m.ok !== false);
     } else if (m.type === "refused") {
       showMessage(`refused (${m.code}): ${m.reason}`, false);
+    } else if (m.type === "instructions") {
+      showInstructions(m);
+    } else if (m.type === "cues") {
+      if (window.raspvAudio) window.raspvAudio.update(m);     // audio_cues.js
     } else if (m.type === "bye") {
       if (/token|full/.test(m.reason)) S.closedFor = m.reason;
       showMessage(`server: ${m.reason}`, false);
@@ -324,6 +329,8 @@
     const k = e.key.length === 1 ? e.key : e.key.toLowerCase();      // "ArrowUp" → "arrowup"
     if (MOVE_KEYS[k.toLowerCase()]) { keysDown.add(k.toLowerCase()); e.preventDefault(); return; }
     if (e.repeat) return;
+    if (k === "enter" && S.instructions && S.instructions.waiting) { startTrial(); e.preventDefault(); return; }
+    if (k === "escape" && S.trialId) { experiment("abort", S.trialId); S.trialId = null; e.preventDefault(); return; }
     if (k === " ") { keysDown.clear(); e.preventDefault(); return; }
     if (VIEWER_KEYS.has(k)) {
       if (S.role === "control") { send({ type: "key", key: k }); S.keysSent++; } else showMessage("watching: keys go to the controlling client", false);
@@ -348,6 +355,29 @@
     viewDirty = true;                          // green applies from the next decoded frame
   }
   function toggleHelp() { $("help").hidden = !$("help").hidden; }
+
+  // ---- experiments: instructions, start and abort (docs/experiments.md) -------------------------
+  function showInstructions(m) {
+    S.instructions = { id: m.id || "", title: m.title || "", text: m.text || "", waiting: !!m.waiting };
+    if (!m.waiting && m.id && S.startedId === m.id) S.trialId = m.id;     // the trial we started runs
+    $("instructions-title").textContent = S.instructions.title;
+    $("instructions-text").textContent = S.instructions.text;
+    $("instructions-start").hidden = !S.instructions.waiting;
+    $("instructions").hidden = !(S.instructions.waiting || S.instructions.text);
+  }
+  function experiment(action, id) {
+    if (S.role !== "control") { showMessage("watching: only the controlling client starts trials", false); return; }
+    send({ type: "experiment", action, id });
+    S.experimentSent.push(action);
+  }
+  function startTrial() {
+    if (!S.instructions || !S.instructions.waiting) return;
+    experiment("start", S.instructions.id);
+    S.startedId = S.instructions.id;
+    S.trialId = S.instructions.id;
+    $("instructions-start").hidden = true;
+  }
+  $("instructions-start").onclick = startTrial;
   function fullscreen() {
     if (document.fullscreenElement) document.exitFullscreen(); else document.documentElement.requestFullscreen().catch(() => {});
   }
@@ -371,7 +401,7 @@
       xrGl = makeQuadRenderer(gl);
       xrSession = session; S.xr = true;
       $("vr").textContent = "Exit VR";
-      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
+      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; S.headQuaternion = null; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
       const onXRFrame = (t, frame) => {
         if (!xrSession) return;
         session.requestAnimationFrame(onXRFrame);
@@ -379,6 +409,7 @@
         if (pose) {
           const o = pose.transform.orientation;
           sendHead({ type: "head", q: [o.x, o.y, o.z, o.w], frame: "xr" });      // every XR frame
+          S.headQuaternion = [-o.z, -o.x, o.y, o.w];                           // base convention
         }
         step(t);
         const layer = session.renderState.baseLayer;

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from raspv_camera.bag_from_frames import RgbdBagWriter
+from raspv_bags.from_frames import RgbdBagWriter
 from raspv_common.intrinsics import CameraIntrinsics
 
 T0 = 1_700_000_000.0

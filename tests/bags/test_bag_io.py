@@ -9,10 +9,10 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.rosbag2 import Reader
 
-from raspv_camera.bag_reader import BagError, BagReader
-from raspv_camera.bag_repair import repair_bag
-from raspv_camera.bag_types import ensure_type, typestore
-from raspv_camera.bag_writer import BagWriteError, BagWriter, QosSpec
+from raspv_bags.reader import BagError, BagReader
+from raspv_bags.repair import repair_bag
+from raspv_bags.message_types import ensure_type, typestore
+from raspv_bags.writer import BagWriteError, BagWriter, QosSpec
 from raspv_common import topics as T
 from raspv_common.conversions import depth_from_image, rgb_from_image
 

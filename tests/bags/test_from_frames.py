@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from raspv_bringup.cli import main as raspv
-from raspv_camera.bag_from_frames import (FramesError, associate, discover_frames, intrinsics_for,
+from raspv_bags.from_frames import (FramesError, associate, discover_frames, intrinsics_for,
                                           load_intrinsics_file, stamp_from_name, write_frames_bag)
-from raspv_camera.bag_reader import BagReader
+from raspv_bags.reader import BagReader
 from raspv_common import topics as T
 from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, rgb_from_image
 from raspv_common.rgbd_files import read_color, read_depth_scaled

@@ -6,9 +6,9 @@ import time
 
 import pytest
 
-from raspv_camera.bag_playback import PlaybackOptions, Player, parse_remap, publisher_qos
-from raspv_camera.bag_reader import BagError, BagReader
-from raspv_camera.bag_writer import BagWriter, QosSpec
+from raspv_bags.playback import PlaybackOptions, Player, parse_remap, publisher_qos
+from raspv_bags.reader import BagError, BagReader
+from raspv_bags.writer import BagWriter, QosSpec
 from raspv_common import topics as T
 
 from .conftest import T0, make_rgbd_bag

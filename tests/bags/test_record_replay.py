@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -14,8 +15,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image
 from std_msgs.msg import String
 
-from raspv_camera.bag_reader import BagReader
-from raspv_camera.bag_repair import repair_bag
+from raspv_bags.reader import BagReader
+from raspv_bags.repair import repair_bag
 from raspv_common import topics as T
 from raspv_common.qos import LATCHED_QOS
 
@@ -145,8 +146,10 @@ def test_bad_bags_stop_the_replay_node_with_one_line(graph, tmp_path):
     junk.mkdir()
     (junk / "junk.mcap").write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 100)
     g = graph({"launch": {"nodes": [{"kind": "replay"}]}, "replay": {"ros__parameters": {"bag": str(junk)}}})
-    g.wait_for_output(r"configuration error: .*junk", timeout=60)
-    g.proc.wait(timeout=30)
+    g.proc.wait(timeout=60)                       # the launcher checks the bag before starting the node
+    assert g.stop() == 2
+    assert re.search(r"replay\.ros__parameters\.bag: .*junk.*no readable records", g.output), g.output
+    assert "Traceback" not in g.output
     play = raspv("bag", "play", str(tmp_path / "missing"))
     assert play.returncode == 1 and "no such bag" in play.stderr and "Traceback" not in play.stderr
     play = raspv("bag", "play", str(junk))
@@ -154,7 +157,7 @@ def test_bad_bags_stop_the_replay_node_with_one_line(graph, tmp_path):
 
 
 def test_topics_of_types_not_installed_are_skipped_with_a_warning(tmp_path):
-    from raspv_camera.bag_writer import BagWriter
+    from raspv_bags.writer import BagWriter
 
     with BagWriter(tmp_path / "mixed") as w:
         w.add_topic("/lab/trial", "lab_msgs/msg/Trial", msgdef="int32 a\n")

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from raspv_bringup.cli import main as raspv
-from raspv_camera.bag_from_frames import discover_frames, write_frames_bag
-from raspv_camera.bag_reader import BagError
-from raspv_camera.bag_render import RenderError, RenderSettings, render_bag
-from raspv_camera.bag_writer import BagWriter
+from raspv_bags.from_frames import discover_frames, write_frames_bag
+from raspv_bags.reader import BagError
+from raspv_bags.render import RenderError, RenderSettings, render_bag
+from raspv_bags.writer import BagWriter
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_spv.simulator import render_frame
 
@@ -41,7 +41,7 @@ def test_mp4_has_one_frame_per_display_tick_and_plays_back(rgbd_bag, tmp_path):
 
 def test_frames_are_the_live_simulators_images(rgbd_bag, tmp_path):
     """Without the temporal model, tick 0 is exactly what the spv core makes of frame 0."""
-    from raspv_camera.bag_reader import BagReader
+    from raspv_bags.reader import BagReader
     from raspv_common import topics as T
     from raspv_common.conversions import rgb_from_image
 
@@ -72,7 +72,7 @@ def test_real_frames_render_through_from_frames(data_dir, tmp_path):
 
 def test_scene_modes_run_the_scene_nodes_core_offline(tmp_path):
     """Wall-Obstacles needs the scene classes: render runs scene perception on each depth frame."""
-    from raspv_camera.bag_from_frames import RgbdBagWriter
+    from raspv_bags.from_frames import RgbdBagWriter
     from raspv_camera.synthetic_scene import SyntheticRoom
     from raspv_perception.scene_labels import COLORS, FLOOR, WALL
 
@@ -93,8 +93,8 @@ def test_scene_modes_run_the_scene_nodes_core_offline(tmp_path):
 
 
 def test_path_overlay_takes_the_recorded_navigation_path(tmp_path):
-    from raspv_camera.bag_from_frames import RgbdBagWriter
-    from raspv_camera.bag_types import typestore
+    from raspv_bags.from_frames import RgbdBagWriter
+    from raspv_bags.message_types import typestore
 
     cam = CameraIntrinsics.from_hfov(64, 48, 60.0)
     ty = typestore().types
@@ -128,7 +128,7 @@ def test_path_overlay_takes_the_recorded_navigation_path(tmp_path):
 
 
 def test_missing_camera_info_needs_intrinsics(tmp_path):
-    from raspv_camera.bag_from_frames import _Serialiser
+    from raspv_bags.from_frames import _Serialiser
 
     ser = _Serialiser()
     with BagWriter(tmp_path / "noinfo") as w:
@@ -147,7 +147,7 @@ def test_missing_camera_info_needs_intrinsics(tmp_path):
 
 
 def test_mismatched_depth_size_is_resampled_or_skipped(tmp_path):
-    from raspv_camera.bag_from_frames import RgbdBagWriter
+    from raspv_bags.from_frames import RgbdBagWriter
 
     cam = CameraIntrinsics.from_hfov(64, 48, 60.0)
     with RgbdBagWriter(tmp_path / "mix") as out:

@@ -196,3 +196,48 @@ def test_phosphenes_from_the_camera_reach_a_headset_client(graph):
             assert status["ok"] and text in status["text"], (key, status)
         await ws.close()
     asyncio.run(press())
+
+
+def test_navigation_guidance_reaches_the_client_as_audio_cues(graph, probe):
+    """/nav/guidance (world) and /odom → a `cues` message in the avatar's base frame."""
+    import math
+
+    from nav_msgs.msg import Odometry
+    from raspv_msgs.msg import NavGuidance
+
+    from raspv_common.conversions import matrix_to_pose
+    from raspv_nav.motion import planar_transform
+
+    g, url, _ = start_bridge(graph)
+    odom_pub = probe.publisher(topics.ODOM, Odometry, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    guide_pub = probe.publisher(topics.NAV_GUIDANCE, NavGuidance, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+
+    async def receive_cues():
+        ws = await controller(url)
+        try:
+            while True:
+                msg = await asyncio.wait_for(ws.recv(), 30.0)
+                if isinstance(msg, str) and json.loads(msg)["type"] == "cues":
+                    return json.loads(msg)
+        finally:
+            await ws.close()
+
+    result = []
+    listener = threading.Thread(target=lambda: result.append(asyncio.run(receive_cues())))
+    listener.start()
+    while listener.is_alive():                    # standing at (1, 2) facing +y; the waypoint at (3, 4)
+        stamp = probe.node.get_clock().now().to_msg()
+        odom = Odometry()
+        odom.header.stamp, odom.header.frame_id = stamp, "world"
+        odom.pose.pose = matrix_to_pose(planar_transform(1.0, 2.0, math.pi / 2))
+        odom_pub.publish(odom)
+        guide = NavGuidance(has_path=True, has_waypoint=True, feasible=True)
+        guide.header.stamp, guide.header.frame_id = stamp, "world"
+        guide.next_waypoint.x, guide.next_waypoint.y = 3.0, 4.0
+        guide_pub.publish(guide)
+        time.sleep(0.05)
+    listener.join()
+    [cues] = result
+    assert cues["frame"] == "base" and cues["has_path"]
+    assert cues["waypoint"]["position"] == pytest.approx([2.0, -2.0, 0.0], abs=1e-3)   # 2 m ahead, 2 m right
+    assert cues["obstacle"] is None and cues["stairs"] is None

@@ -4,6 +4,7 @@ import pytest
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMsg
 from nav_msgs.msg import Path
+from raspv_msgs.msg import NavGuidance
 
 from raspv_camera.synthetic_scene import SyntheticRoom
 from raspv_common import topics
@@ -47,6 +48,30 @@ def test_planner_publishes_a_path_to_the_goal_around_obstacles(graph, probe, tmp
         assert not inside.any()
     hint = probe.wait_for_message("/nav/cmd_vel_hint", Twist)
     assert hint.linear.x >= 0.0
+    # inflated costs, not the raw map: obstacle cells, the inscribed ring and graded costs
+    static = np.array(costmap.data, np.int8)
+    assert {100, 99}.issubset(set(static.tolist())) and ((static > 0) & (static < 99)).any()
+    live = probe.wait_for_message(topics.NAV_OBSTACLE_LAYER, OccupancyGridMsg, timeout=60,
+                                  predicate=lambda m: 100 in m.data)
+    values = np.array(live.data, np.int8)
+    assert (values == 0).any() and (values == -1).any()            # seen free, never seen
+    combined = probe.wait_for_message(topics.NAV_COSTMAP, OccupancyGridMsg, timeout=60)
+    assert (combined.info.width, combined.info.height) == (160, 120)
+    guidance = probe.wait_for_message(topics.NAV_GUIDANCE, NavGuidance, timeout=30, predicate=lambda m: m.has_path)
+    assert guidance.has_waypoint and guidance.header.frame_id == "world"
+
+
+def test_without_a_path_an_empty_path_replaces_the_old_one(graph, probe, tmp_path):
+    room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
+    save_map(room_map(room), tmp_path / "room.yaml")
+    g = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}]},
+               "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
+               "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": [3.2, 1.5]}}})
+    probe.wait_for_message(topics.NAV_PATH, Path, timeout=90, predicate=lambda m: len(m.poses) >= 2)
+    [(_, ok, _)] = probe.set_params("planner", {"goal": [30.0, 1.5]})     # off the map
+    assert ok
+    probe.wait_for_message(topics.NAV_PATH, Path, timeout=30, predicate=lambda m: len(m.poses) == 0)
+    g.wait_for_output(r"no path to the goal: goal \(30\.00, 1\.50\) is outside the map")
 
 
 def test_planner_without_map_fails_with_one_line(graph):

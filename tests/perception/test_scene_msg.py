@@ -51,3 +51,13 @@ def test_no_floor_travels_as_nan():
     assert not back.floor_found and not back.manhattan_found
     assert math.isnan(back.camera_height) and np.isnan(back.floor_plane).all()
     assert back.planes == [] and back.free_floor.shape == (0, 2)
+
+
+def test_gravity_source_and_up_travel_without_a_floor():
+    from raspv_perception.scene_structure import GravitySource
+
+    s = SceneStructure(up=np.array([0.0, -0.8, -0.6]), gravity_source=GravitySource.IMU)
+    back = round_trip(s)
+    assert back.gravity_source == GravitySource.IMU and not back.floor_found
+    np.testing.assert_allclose(back.up, [0.0, -0.8, -0.6], atol=1e-6)
+    assert SceneStructureMsg.GRAVITY_IMU == GravitySource.IMU and SceneStructureMsg.GRAVITY_SUPPORT == GravitySource.SUPPORT

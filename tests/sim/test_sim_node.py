@@ -132,12 +132,17 @@ def test_head_orientation_turns_the_camera_pose_only(graph, probe):
 def test_a_broken_world_is_a_one_line_configuration_error(graph, tmp_path):
     world = tmp_path / "broken.yaml"
     world.write_text(yaml.safe_dump({**BOX_ROOM, "furniture": [{"type": "sofa", "position": [3, 3], "size": [2, 1]}]}))
-    g = graph(sim_graph({"world": str(world)}))
-    line = g.wait_for_output(r"configuration error: .*", timeout=60).group(0)
+    g = graph(sim_graph({"world": str(world)}))          # the launcher checks the world before starting anything
+    g.proc.wait(timeout=60)
+    assert g.stop() == 2
+    [line] = [x for x in g.output.splitlines() if x.strip()]
+    assert "sim.ros__parameters.world:" in line
     assert line.endswith("furniture[0] (sofa): 'size' must be 3 positive numbers, got [2, 1]")
-    g.proc.wait(timeout=30)
-    assert g.stop() != 0
-    assert "Traceback" not in g.output
+    # the node itself, started without the launcher, says the same in one line
+    node = subprocess.run([sys.executable, "-m", "raspv_sim.sim_node", "--ros-args", "-p", f"world:={world}"],
+                          capture_output=True, text=True, timeout=120)
+    assert node.returncode == 2 and "Traceback" not in node.stdout + node.stderr
+    assert node.stderr.strip().endswith("furniture[0] (sofa): 'size' must be 3 positive numbers, got [2, 1]")
 
 
 def test_teleop_without_a_terminal_says_so_in_one_line():

@@ -120,7 +120,7 @@ def test_malformed_world_fails_with_one_line_naming_the_entry(tmp_path, path, va
 def test_invalid_yaml_and_unknown_names(tmp_path):
     f = tmp_path / "bad.yaml"
     f.write_text("floor: {from: [0, 0], to: [1, 1]\nspawn: x\n")
-    with pytest.raises(WorldFileError, match=r"bad.yaml: line \d+: invalid YAML"):
+    with pytest.raises(WorldFileError, match=r"bad.yaml: line \d+, column \d+: invalid YAML"):
         load_world(f)
     with pytest.raises(WorldFileError, match="unknown world 'atlantis': shipped worlds are apartment, office, stairs"):
         load_world("atlantis")

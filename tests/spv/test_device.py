@@ -38,7 +38,7 @@ def test_a_user_file_with_the_same_keys_is_a_device(tmp_path):
     ("name: x\nnum_phosphenes: 10\nfov_deg: 20\ngrid: round\nphosphene_fov_deg: 1\nnum_levels: 1\n",
      "grid must be one of rectangular, hexagonal.*num_levels must be an integer in \\[2, 256\\]"),
     ("- just\n- a list\n", "expected a mapping"),
-    ("name: [unclosed\n", "cannot read device YAML"),
+    ("name: [unclosed\n", "line 2, column 1: invalid YAML"),
 ])
 def test_bad_device_files_get_one_clear_error(tmp_path, text, message):
     path = tmp_path / "bad.yaml"
@@ -49,7 +49,7 @@ def test_bad_device_files_get_one_clear_error(tmp_path, text, message):
 
 
 def test_unknown_preset_lists_the_presets():
-    with pytest.raises(DeviceError, match="unknown device preset 'argus_iv'; presets: alpha_ims, argus_ii"):
+    with pytest.raises(DeviceError, match="unknown device preset 'argus_iv'; presets: alpha_ims, alpha_ims_implant, argus_ii"):
         load_device("argus_iv")
     with pytest.raises(DeviceError, match="does not exist"):
         load_device("/nonexistent/device.yaml")

@@ -65,7 +65,9 @@ def test_parameters_change_at_run_time_and_bad_values_are_refused(graph, probe):
     assert cli.returncode == 1 and "refused dropout=2.0" in cli.stderr
     results = probe.set_params("spv", {"output_format": "green", "device": "argus_ii", "num_phosphenes": 0})
     assert all(ok for _, ok, _ in results), results
-    img = probe.wait_for_message(topics.SPV_IMAGE, Image, timeout=30, predicate=lambda i: i.encoding == "rgb8")
+    # changes are built in the background: wait for the image of the last one (argus_ii's aspect 0.6)
+    img = probe.wait_for_message(topics.SPV_IMAGE, Image, timeout=60,
+                                 predicate=lambda i: i.encoding == "rgb8" and i.height == 120)
     assert (img.width, img.height) == (200, 120)
     m = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=30, qos=LATCHED_QOS,
                                predicate=lambda m: m.device == "argus_ii" and len(m.x) == 60)
@@ -118,6 +120,7 @@ def test_an_impossible_configuration_is_one_line_at_start(graph, tmp_path):
     bad = tmp_path / "broken.yaml"
     bad.write_text("name: broken\nnum_phosphenes: 10\nfov_deg: 20\ngrid: hexagonal\n")
     g = graph({"launch": {"nodes": [{"kind": "spv"}]}, "spv": {"ros__parameters": {"device": str(bad)}}})
-    g.wait_for_output(r"configuration error: .*broken.yaml: missing key\(s\) num_levels, phosphene_fov_deg", timeout=60)
-    g.proc.wait(timeout=30)
-    assert g.stop() != 0 and "Traceback" not in g.output
+    g.proc.wait(timeout=60)                       # the launcher checks the device file before starting the node
+    assert g.stop() == 2 and "Traceback" not in g.output
+    assert re.search(r"spv\.ros__parameters\.device: .*broken.yaml: missing key\(s\) num_levels, phosphene_fov_deg",
+                     g.output), g.output

@@ -1,0 +1,93 @@
+"""Recording a live graph into a bag: topic selection, writing, counts (no ROS imports).
+
+The ROS side (`raspv bag record`, :mod:`raspv_bringup.bag_cli`) discovers topics, subscribes
+with raw (serialised) subscriptions and hands every message here; :class:`Recording` writes
+the bytes unchanged through :class:`~raspv_bags.writer.BagWriter` (which flushes every
+``flush_interval_s``, so a killed recorder loses at most that much) and keeps the per-topic
+counts shown on the status line.
+"""
+from __future__ import annotations
+
+import fnmatch
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from raspv_bags.writer import BagWriter, QosSpec
+
+# Infrastructure topics left out of "record everything" (name them to record them).
+DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")
+
+
+@dataclass(frozen=True)
+class TopicSelection:
+    """Which discovered topics to record: ``topics`` (names or shell patterns such as
+    ``/camera/*``; empty = all) minus ``exclude`` (names or patterns)."""
+
+    topics: tuple[str, ...] = ()
+    exclude: tuple[str, ...] = ()
+
+    def wants(self, name: str) -> bool:
+        if any(fnmatch.fnmatchcase(name, p) for p in self.exclude):
+            return False
+        if not self.topics:
+            return name not in DEFAULT_EXCLUDED
+        return any(fnmatch.fnmatchcase(name, p) for p in self.topics)
+
+    def unmatched(self, seen: Iterable[str]) -> list[str]:
+        """Requested names/patterns that no topic in ``seen`` matched yet."""
+        seen = list(seen)
+        return [p for p in self.topics if not any(fnmatch.fnmatchcase(n, p) for n in seen)]
+
+
+class Recording:
+    """A bag being recorded from the graph."""
+
+    def __init__(self, path: str | Path, storage: str = "mcap", flush_interval_s: float = 0.5) -> None:
+        self.writer = BagWriter(path, storage, flush_interval_s=flush_interval_s)
+        self.path = self.writer.path
+        self.started = time.monotonic()
+        self.first_ns: int | None = None
+        self.last_ns: int | None = None
+
+    @property
+    def topics(self) -> dict[str, str]:
+        return dict(self.writer.types)
+
+    def add_topic(self, topic: str, msgtype: str, offered: Sequence[QosSpec]) -> None:
+        self.writer.add_topic(topic, msgtype, offered)
+
+    def on_message(self, topic: str, data: bytes, receive_ns: int) -> None:
+        """Write one serialised message with its receive time (ns since the epoch)."""
+        self.writer.write(topic, receive_ns, data)
+        if self.first_ns is None:
+            self.first_ns = receive_ns
+        self.last_ns = receive_ns
+
+    @property
+    def counts(self) -> dict[str, int]:
+        return dict(self.writer.counts)
+
+    def status_line(self, width: int = 120) -> str:
+        """``12.3 s  41.2 MB  /camera/color/image_raw 245  /camera/pose 245 …`` cut to ``width``."""
+        elapsed = time.monotonic() - self.started
+        head = f"recording {elapsed:6.1f} s  {self.writer.bytes_written / 1e6:7.1f} MB"
+        parts = [f"{t} {n}" for t, n in sorted(self.writer.counts.items())]
+        line = "  ".join([head] + parts) if parts else head + "  (waiting for topics)"
+        return line if len(line) <= width else line[: max(0, width - 1)] + "…"
+
+    def summary(self) -> str:
+        total = sum(self.writer.counts.values())
+        span = (self.last_ns - self.first_ns) * 1e-9 if self.first_ns is not None else 0.0
+        lines = [f"{self.path}: {total} messages over {span:.1f} s, {self.writer.bytes_written / 1e6:.1f} MB "
+                 f"({self.writer.storage})"]
+        for t, n in sorted(self.writer.counts.items()):
+            lines.append(f"  {t:40s} {n:7d}  {self.writer.types[t]}")
+        return "\n".join(lines)
+
+    def flush(self) -> None:
+        self.writer.flush()
+
+    def close(self) -> None:
+        self.writer.close()

@@ -1,0 +1,153 @@
+"""Writing ROS 2 bags that survive their writer being killed (no ROS imports).
+
+:class:`BagWriter` wraps rosbags' writer (mcap or sqlite3) and adds :meth:`BagWriter.flush`:
+everything written before a flush is on disk in a form :class:`raspv_bags.reader.BagReader`
+can read back even if the process then dies without closing the bag (SIGKILL, power loss of
+the process, OOM killer):
+
+- mcap: the pending chunk is closed and the file buffer flushed, so the file is a sequence of
+  complete chunk records; only the summary and footer (written by :meth:`close`) are missing.
+- sqlite3: the open transaction is committed.
+
+``flush_interval_s`` makes :meth:`write` flush by itself, so a killed recording loses at most
+that much. :meth:`close` writes the index, the footer and ``metadata.yaml``.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+from rosbags.rosbag2.storage_mcap import McapWriter
+from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
+
+from raspv_bags.message_types import normalise_type, typestore
+
+STORAGES = ("mcap", "sqlite3")
+
+
+class BagWriteError(RuntimeError):
+    """A bag that cannot be created or written (the message says why)."""
+
+
+@dataclass(frozen=True)
+class QosSpec:
+    """The QoS a topic was offered with, in plain terms (stored in the bag per topic)."""
+
+    reliable: bool = True
+    transient_local: bool = False
+    depth: int = 10
+
+    def to_rosbags(self) -> Qos:
+        zero = QosTime(0, 0)
+        return Qos(QosHistory.KEEP_LAST, int(self.depth),
+                   QosReliability.RELIABLE if self.reliable else QosReliability.BEST_EFFORT,
+                   QosDurability.TRANSIENT_LOCAL if self.transient_local else QosDurability.VOLATILE,
+                   zero, zero, QosLiveliness.AUTOMATIC, zero, False)
+
+    @classmethod
+    def from_rosbags(cls, qos: Qos) -> "QosSpec":
+        return cls(reliable=qos.reliability != QosReliability.BEST_EFFORT,
+                   transient_local=qos.durability == QosDurability.TRANSIENT_LOCAL,
+                   depth=max(1, int(qos.depth or 1)))
+
+
+class _FlushableMcap(McapWriter):
+    def flush(self) -> None:
+        if self.chunk.bio.tell():
+            self.close_chunk()
+        self.bio.flush()
+
+
+class _FlushableSqlite3(Sqlite3Writer):
+    def flush(self) -> None:
+        self.conn.commit()
+
+
+class _Writer(Writer):
+    STORAGE_PLUGINS = {StoragePlugin.SQLITE3: _FlushableSqlite3, StoragePlugin.MCAP: _FlushableMcap}
+
+
+class BagWriter:
+    """A ROS 2 bag (directory) being written. Timestamps are integer nanoseconds."""
+
+    def __init__(self, path: str | Path, storage: str = "mcap", flush_interval_s: float | None = 0.5) -> None:
+        if storage not in STORAGES:
+            raise BagWriteError(f"unknown storage {storage!r}; use one of {', '.join(STORAGES)}")
+        self.path = Path(path)
+        if self.path.exists():
+            raise BagWriteError(f"{self.path} exists already; choose a new output directory")
+        if not self.path.parent.is_dir():
+            raise BagWriteError(f"{self.path.parent} is not a directory")
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        self.storage = storage
+        self._writer = _Writer(self.path, version=9, storage_plugin=plugin)
+        try:
+            self._writer.open()
+        except (OSError, WriterError) as exc:
+            raise BagWriteError(f"cannot create bag {self.path}: {exc}") from None
+        self._connections: dict[str, object] = {}
+        self.counts: dict[str, int] = {}
+        self.types: dict[str, str] = {}
+        self.bytes_written = 0
+        self.flush_interval_s = flush_interval_s
+        self._last_flush = time.monotonic()
+        self.closed = False
+
+    def add_topic(self, topic: str, msgtype: str, qos: Sequence[QosSpec] = (),
+                  msgdef: str | None = None, type_hash: str | None = None) -> None:
+        """Declare a topic. ``msgdef``/``type_hash`` (rosbag2 text and RIHS01 hash) are needed
+        only for types the typestore does not know."""
+        msgtype = normalise_type(msgtype)
+        if topic in self._connections:
+            if self.types[topic] != msgtype:
+                raise BagWriteError(f"topic {topic} already recorded as {self.types[topic]}, not {msgtype}")
+            return
+        store = typestore()
+        offered = [q.to_rosbags() for q in qos]
+        try:
+            if msgtype in store.fielddefs:
+                conn = self._writer.add_connection(topic, msgtype, typestore=store, offered_qos_profiles=offered)
+            elif msgdef is not None:
+                conn = self._writer.add_connection(topic, msgtype, msgdef=msgdef, rihs01=type_hash or "RIHS01_" + "0" * 64,
+                                                   offered_qos_profiles=offered)
+            else:
+                raise BagWriteError(f"message type {msgtype} of {topic} is unknown and has no definition")
+        except WriterError as exc:
+            raise BagWriteError(f"cannot add topic {topic} ({msgtype}): {exc}") from None
+        self._connections[topic] = conn
+        self.counts[topic] = 0
+        self.types[topic] = msgtype
+
+    def write(self, topic: str, timestamp_ns: int, data: bytes | memoryview) -> None:
+        """Append one serialised (CDR) message of a declared topic."""
+        conn = self._connections.get(topic)
+        if conn is None:
+            raise BagWriteError(f"topic {topic} was not added to the bag")
+        self._writer.write(conn, int(timestamp_ns), data)
+        self.counts[topic] += 1
+        self.bytes_written += len(data)
+        if self.flush_interval_s is not None and time.monotonic() - self._last_flush >= self.flush_interval_s:
+            self.flush()
+
+    def flush(self) -> None:
+        """Make everything written so far readable after a crash."""
+        if not self.closed and self._writer.storage is not None:
+            self._writer.storage.flush()
+        self._last_flush = time.monotonic()
+
+    def close(self) -> None:
+        """Write the index, footer and ``metadata.yaml``: the bag is complete."""
+        if self.closed:
+            return
+        self.closed = True
+        self._writer.close()
+
+    def __enter__(self) -> "BagWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

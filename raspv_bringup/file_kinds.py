@@ -1,0 +1,140 @@
+"""Kinds of files a graph names, and how each is checked before any process starts (no rclpy).
+
+A node parameter that names a file says so in its schema —
+``Param("world", "apartment", "...", file_kind="world")`` — and the launcher (``raspv launch``,
+``--check`` included) runs that kind's check on the parameter's value before it starts
+anything, so a file the node would fail on is one line naming the graph, the parameter and the
+file:
+
+    demo.yaml: sim.ros__parameters.world: worlds/x.yaml: line 3, column 5: invalid YAML (...)
+
+A check is the loader the node itself uses (or a function that runs it without side effects):
+it takes the parameter's value and raises ``ValueError`` (every RASPV loader error is one) or
+``OSError`` with one line naming the file. An empty value means "not set" and is not checked.
+New kinds (segmentation models, protocols, …) are one entry in :data:`FILE_KINDS`, or a
+:func:`register_file_kind` call from the package that owns them. Checks are given as
+``"module:function"`` so validating a graph imports only what its files need.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable
+
+from raspv_common.params import Param
+
+Check = Callable[[str], Any]
+
+
+@dataclass(frozen=True)
+class FileKind:
+    """``check``: ``"module:function"`` or a callable taking the parameter's value (a path or,
+    for kinds with shipped entries, a name) and raising ValueError/OSError with one line.
+    ``with_params``: the check also takes the node's parameter values (a dict) — for files
+    whose meaning depends on another parameter (a model file and the backend that runs it)."""
+
+    name: str
+    check: str | Check
+    description: str
+    with_params: bool = False
+
+    def checker(self) -> Check:
+        if callable(self.check):
+            return self.check
+        module, attr = self.check.split(":")
+        return getattr(importlib.import_module(module), attr)
+
+
+def _check_bag(value: str) -> None:
+    try:                                   # issue 11 moves the bag code to raspv_bags
+        from raspv_bags.reader import BagReader
+    except ImportError:
+        from raspv_camera.bag_reader import BagReader
+    BagReader(value).close()
+
+
+def _check_output_dir(value: str) -> None:
+    """A directory the node will create (with its parents) and write into."""
+    import os
+    from pathlib import Path
+
+    p = Path(value).expanduser()
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{value}: exists and is not a directory")
+    existing = next(q for q in (p, *p.parents) if q.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise ValueError(f"{value}: cannot create or write in it ({existing} is not writable)")
+
+
+def _check_pem(value: str) -> None:
+    from raspv_common.text_files import read_text_file
+
+    text = read_text_file(value, "PEM file")
+    if "-----BEGIN " not in text:
+        raise ValueError(f"{value}: not a PEM file (no '-----BEGIN' line)")
+
+
+FILE_KINDS: dict[str, FileKind] = {
+    "world": FileKind("world", "raspv_sim.world_check:check_world",
+                      "simulator world: shipped name or YAML file, with every mesh/URDF/SDF it names"),
+    "device": FileKind("device", "raspv_spv.device:load_device", "prosthesis: preset name or device YAML file"),
+    "map": FileKind("map", "raspv_nav.occupancy:load_map", "map_server YAML and the image it names"),
+    "bag": FileKind("bag", _check_bag, "ROS 2 bag: directory, .mcap or .db3 file"),
+    "output_dir": FileKind("output_dir", _check_output_dir, "directory the node creates and writes into"),
+    "pem": FileKind("pem", _check_pem, "PEM certificate or key"),
+}
+
+
+def register_file_kind(name: str, check: str | Check, description: str, with_params: bool = False) -> FileKind:
+    """Declare a new kind of file (e.g. from the package that loads it); returns it."""
+    kind = FileKind(name, check, description, with_params)
+    FILE_KINDS[name] = kind
+    return kind
+
+
+def check_file(kind: str, value: str, params: dict[str, Any] | None = None) -> str | None:
+    """None when ``value`` is a usable file of ``kind``, else one line saying why. ``params``:
+    the node's parameter values, for kinds whose check needs them."""
+    spec = FILE_KINDS.get(kind)
+    if spec is None:
+        return f"declares an unknown file kind {kind!r} (known: {', '.join(sorted(FILE_KINDS))})"
+    try:
+        if spec.with_params:
+            spec.checker()(value, dict(params or {}))
+        else:
+            spec.checker()(value)
+    except (ValueError, OSError) as exc:
+        return _one_line(exc) or f"{value}: not a usable {spec.description}"
+    except Exception as exc:  # noqa: BLE001 - a loader's bug must still be one line, not a traceback
+        return f"{value}: cannot be checked as a {kind} ({type(exc).__name__}: {_one_line(exc)})"
+    return None
+
+
+def check_files(params: Iterable[Param], values: dict[str, Any],
+                cache: dict[tuple, str | None] | None = None) -> list[tuple[str, str]]:
+    """Run the file checks of every parameter of ``params`` that declares a file kind and has a
+    non-empty value in ``values``; returns (parameter, message) for each failure. ``cache``
+    (kind, value) → result spares checking a file twice (two nodes naming one world)."""
+    errors = []
+    cache = {} if cache is None else cache
+    for p in params:
+        if not p.file_kind:
+            continue
+        value = values.get(p.name, p.default)
+        for item in (value if isinstance(value, list) else [value]):
+            if isinstance(item, str) and item.strip():
+                kind = FILE_KINDS.get(p.file_kind)
+                key = (p.file_kind, item) if kind is None or not kind.with_params else (p.file_kind, item, repr(values))
+                if key not in cache:
+                    cache[key] = check_file(p.file_kind, item, values)
+                if cache[key]:
+                    errors.append((p.name, cache[key]))
+    return errors
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    lines = [line.strip() for line in text.strip().splitlines() if line.strip()]
+    return lines[0] if lines else ""

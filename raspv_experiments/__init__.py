@@ -1,0 +1,1 @@
+"""Experiments: protocol files, sessions with subjects, scripted subjects, sweeps and reports (docs/experiments.md)."""

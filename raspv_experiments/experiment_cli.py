@@ -1,0 +1,194 @@
+"""``raspv experiment check|plan|run|sweep|report`` — protocols, sessions, sweeps and reports.
+
+    raspv experiment check PROTOCOL...                    validate protocol (or sweep) files
+    raspv experiment plan PROTOCOL --subject S07          the subject's trial order
+    raspv experiment run PROTOCOL --subject S07 [--resume] [--bag] [--out DIR]
+    raspv experiment run PROTOCOL --subject scripted:follow_path[:N]
+    raspv experiment sweep SWEEP [--workers N | --ray [ADDRESS]] [--out DIR] [--resume]
+    raspv experiment report DIR... [-o OUT]
+
+PROTOCOL is a path or the name of a file in ``experiments/``. docs/experiments.md is the guide.
+"""
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+
+ACTIONS = ("check", "plan", "run", "sweep", "report")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    p = sub.add_parser("check", help="validate protocol or sweep files (one line per mistake)")
+    p.add_argument("files", nargs="+", metavar="FILE")
+    p = sub.add_parser("plan", help="print a subject's trial order")
+    p.add_argument("protocol")
+    p.add_argument("--subject", required=True, help="subject id with a number, e.g. S07")
+    p = sub.add_parser("run", help="run a session: the graph, then every trial of the protocol for one subject")
+    p.add_argument("protocol")
+    p.add_argument("--subject", required=True, help="S07 (a person), or scripted:POLICY[:N] (a virtual subject: "
+                                                    "follow_path or wander_avoid, number N)")
+    p.add_argument("--out", default="sessions", help="sessions go to OUT/<protocol>/<subject>/ (default: sessions)")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted session at its next trial")
+    p.add_argument("--bag", action="store_true", default=None, help="record a bag of every trial (default: the "
+                                                                    "protocol's record.bag)")
+    p.add_argument("--realtime", action="store_true", help="scripted subjects too walk in real time (default: "
+                                                           "lockstep, as fast as the machine allows)")
+    p = sub.add_parser("sweep", help="many scripted-subject sessions in parallel (worker processes or Ray)")
+    p.add_argument("sweep")
+    p.add_argument("--out", default=None, help="output folder (default: sweeps/<sweep name>)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes on this machine (default: cores / 2)")
+    p.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
+                   help="run on a Ray cluster (ADDRESS, e.g. auto or ray://host:10001; no ADDRESS: a local Ray)")
+    p.add_argument("--resume", action="store_true", help="continue sessions already in OUT")
+    p = sub.add_parser("report", help="tidy CSV and HTML report with figures and statistics")
+    p.add_argument("dirs", nargs="+", metavar="DIR", help="session or sweep folders (searched for trials.jsonl)")
+    p.add_argument("-o", "--out", default="report", help="output folder (default: report)")
+    p.add_argument("--title", default=None)
+
+
+def _err(text: str) -> int:
+    print(f"raspv experiment: {text}", file=sys.stderr)
+    return 2
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_sim.native_output import captured_native_output
+
+    with captured_native_output():      # PyBullet's import banner is not for the experimenter
+        import pybullet  # noqa: F401
+    return {"check": _check, "plan": _plan, "run": _run, "sweep": _sweep, "report": _report}[args.action](args)
+
+
+def _load(name: str):
+    from raspv_experiments.protocol import load_protocol, resolve_protocol_path
+
+    return load_protocol(resolve_protocol_path(name))
+
+
+def _check(args) -> int:
+    from raspv_experiments.protocol import ProtocolError
+    from raspv_experiments.sweep import load_sweep
+
+    code = 0
+    for f in args.files:
+        try:
+            if _is_sweep(Path(f)):
+                s = load_sweep(f)
+                print(f"ok: {f}: sweep of {len(s.subjects)} virtual subjects × {len(s.protocol.conditions)} conditions")
+            else:
+                p = _load(f)
+                print(f"ok: {p.path}: {len(p.conditions)} conditions × {len(p.tasks)} tasks × "
+                      f"{p.design.repetitions} repetitions, order {p.design.order}")
+        except ProtocolError as exc:
+            for line in exc.errors:
+                print(line, file=sys.stderr)
+            code = 2
+    return code
+
+
+def _is_sweep(path: Path) -> bool:
+    """A sweep file names a protocol; a protocol file has a graph."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return False
+    return isinstance(doc, dict) and "protocol" in doc and "graph" not in doc
+
+
+def _plan(args) -> int:
+    from raspv_experiments.design import plan_session
+    from raspv_experiments.protocol import ProtocolError
+
+    try:
+        protocol = _load(args.protocol)
+        trials = plan_session(protocol, args.subject)
+    except ProtocolError as exc:
+        print("\n".join(exc.errors), file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        return _err(str(exc))
+    for t in trials:
+        mark = "  (break before)" if t.break_before else ""
+        print(f"{t.index:3d}  block {t.block}  {t.label}{mark}")
+    return 0
+
+
+def _install_stop(stop: threading.Event) -> None:
+    def handler(signum, _frame):
+        stop.set()
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+
+
+def _run(args) -> int:
+    from raspv_bringup.middleware import apply_middleware_defaults
+    from raspv_experiments.protocol import ProtocolError
+    from raspv_experiments.runner_node import RunnerError
+    from raspv_experiments.session import SessionError
+    from raspv_experiments.session_runner import RunOptions, SessionRunner, parse_subject
+    from raspv_experiments.terminal import TerminalView
+
+    try:
+        protocol = _load(args.protocol)
+        subject, policy, number = parse_subject(args.subject)
+    except ProtocolError as exc:
+        print("\n".join(exc.errors), file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        return _err(str(exc))
+    apply_middleware_defaults()
+    options = RunOptions(out=Path(args.out), subject=subject, policy=policy, number=number, resume=args.resume,
+                         bag=args.bag, lockstep=False if args.realtime else None,
+                         headless=False if args.realtime else None)
+    holder: dict = {}
+    view = TerminalView(on_key=lambda key: holder["runner"].control.key(key) if "runner" in holder else None)
+    runner = None
+    _install_stop(options.stop)
+    try:
+        runner = holder["runner"] = SessionRunner(protocol, options, view)
+        return runner.run()
+    except (SessionError, RunnerError, ValueError) as exc:
+        view.say("")
+        return _err(str(exc))
+    except KeyboardInterrupt:
+        view.say("raspv experiment: stopped; continue with --resume")
+        return 130
+    finally:
+        if runner is not None:
+            runner.close()
+        view.close()
+
+
+def _sweep(args) -> int:
+    from raspv_experiments.protocol import ProtocolError
+    from raspv_experiments.sweep import load_sweep, run_sweep
+
+    try:
+        sweep = load_sweep(args.sweep)
+    except ProtocolError as exc:
+        print("\n".join(exc.errors), file=sys.stderr)
+        return 2
+    out = Path(args.out or f"sweeps/{sweep.name}")
+    if args.workers is not None and args.workers < 1:
+        return _err(f"--workers must be >= 1, got {args.workers}")
+    results = run_sweep(sweep, out, args.workers, args.ray, args.resume)
+    bad = [r for r in results if r["code"] != 0]
+    print(f"sweep done: {len(results)} sessions in {out / 'sessions'}; report: raspv experiment report {out}")
+    return 1 if bad else 0
+
+
+def _report(args) -> int:
+    from raspv_experiments.report import ReportError, build_report
+
+    try:
+        path = build_report([Path(d) for d in args.dirs], Path(args.out), args.title)
+    except ReportError as exc:
+        return _err(str(exc))
+    print(f"report: {path} (data: {path.parent / 'trials.csv'})")
+    return 0

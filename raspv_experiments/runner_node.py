@@ -1,0 +1,193 @@
+"""The experiment runner's connection to the running graph: an rclpy node in the runner's process
+(thin: it only moves data between ROS and :mod:`raspv_experiments.session_runner`).
+
+It follows the simulation time (``/clock``), the avatar (``/odom``), collisions
+(``/sim/collisions``) and the subject's start/abort (``/experiment/response``); it shows
+instructions (``/experiment/instructions``, latched JSON ``{id, trial, title, text, waiting}``),
+calls the simulator's trial services and sets node parameters.
+"""
+from __future__ import annotations
+
+import json
+import os
+import threading
+import time
+from collections import deque
+from typing import Any
+
+from raspv_common import topics
+
+
+class RunnerError(Exception):
+    """The graph did not answer or refused a request; the message says which and why."""
+
+
+class GraphClient:
+    def __init__(self, name: str = "raspv_experiment") -> None:
+        import rclpy
+        from nav_msgs.msg import Odometry
+        from raspv_msgs.msg import CollisionEvent
+        from raspv_msgs.srv import EndTrial, StartTrial
+        from rclpy.executors import SingleThreadedExecutor
+        from rosgraph_msgs.msg import Clock
+        from std_msgs.msg import String
+
+        from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+
+        self._rclpy = rclpy
+        self._String = String
+        self._StartTrial, self._EndTrial = StartTrial, EndTrial
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, args=["runner", "--ros-args", "--disable-rosout-logs"])
+        self.node = rclpy.create_node(f"{name}_{os.getpid()}", context=self.context)
+        self.lock = threading.Lock()
+        self.sim_time: float | None = None
+        self.clock_wall = time.monotonic()
+        self.pose: tuple[float, float] | None = None
+        self.collision_events: deque[dict[str, Any]] = deque()
+        self.responses: deque[dict[str, Any]] = deque()
+        n = self.node
+        n.create_subscription(Clock, topics.CLOCK, self._on_clock, COMMAND_QOS)
+        n.create_subscription(Odometry, topics.ODOM, self._on_odom, SENSOR_QOS)
+        n.create_subscription(CollisionEvent, topics.SIM_COLLISIONS, self._on_collision, EVENT_QOS)
+        n.create_subscription(String, topics.EXPERIMENT_RESPONSE, self._on_response, EVENT_QOS)
+        self.pub_instructions = n.create_publisher(String, topics.EXPERIMENT_INSTRUCTIONS, LATCHED_QOS)
+        self.start_client = n.create_client(StartTrial, topics.SIM_START_TRIAL)
+        self.end_client = n.create_client(EndTrial, topics.SIM_END_TRIAL)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(n)
+        self._thread = threading.Thread(target=self._spin, daemon=True, name="runner-ros")
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # noqa: BLE001 - the context was shut down
+            pass
+
+    def close(self) -> None:
+        try:
+            self.executor.shutdown(timeout_sec=2.0)
+            self.node.destroy_node()
+        finally:
+            self._rclpy.try_shutdown(context=self.context)
+            self._thread.join(timeout=3.0)
+
+    # -- inputs ---------------------------------------------------------------------------------
+    def _on_clock(self, msg) -> None:
+        t = msg.clock.sec + msg.clock.nanosec * 1e-9
+        with self.lock:
+            if self.sim_time is None or t != self.sim_time:
+                self.clock_wall = time.monotonic()
+            self.sim_time = t
+
+    def _on_odom(self, msg) -> None:
+        p = msg.pose.pose.position
+        with self.lock:
+            self.pose = (float(p.x), float(p.y))
+
+    def _on_collision(self, msg) -> None:
+        with self.lock:
+            self.collision_events.append({"name": msg.other_name, "class": msg.other_class, "count": int(msg.count)})
+
+    def _on_response(self, msg) -> None:
+        try:
+            data = json.loads(msg.data)
+        except json.JSONDecodeError:
+            return
+        if isinstance(data, dict):
+            with self.lock:
+                self.responses.append(data)
+
+    def state(self) -> tuple[float | None, tuple[float, float] | None, float]:
+        """(sim time [s], base (x, y) [m, W], wall seconds since the sim time last changed)."""
+        with self.lock:
+            return self.sim_time, self.pose, time.monotonic() - self.clock_wall
+
+    def take_collisions(self) -> list[dict[str, Any]]:
+        with self.lock:
+            out = list(self.collision_events)
+            self.collision_events.clear()
+            return out
+
+    def take_responses(self) -> list[dict[str, Any]]:
+        with self.lock:
+            out = list(self.responses)
+            self.responses.clear()
+            return out
+
+    # -- requests -------------------------------------------------------------------------------
+    def wait_ready(self, nodes: list[str], timeout: float, alive=lambda: True) -> None:
+        """Wait until the simulator's trial services, the parameter services of ``nodes`` and
+        the simulation clock are up."""
+        from raspv_common.param_client import ParamClient
+
+        clients = [ParamClient(self.node, n) for n in nodes]
+        deadline = time.monotonic() + timeout
+        try:
+            while True:
+                missing = [c.target for c in clients if not c.is_ready()]
+                if not self.start_client.service_is_ready():
+                    missing.append(topics.SIM_START_TRIAL)
+                if self.state()[0] is None:
+                    missing.append(topics.CLOCK)
+                if not missing:
+                    return
+                if not alive():
+                    raise RunnerError("the graph stopped while starting (see the graph log)")
+                if time.monotonic() > deadline:
+                    raise RunnerError(f"the graph did not come up within {timeout:.0f} s: waiting for {', '.join(missing)}")
+                time.sleep(0.05)
+        finally:
+            for c in clients:
+                c.destroy()
+
+    def _wait(self, future, timeout: float, what: str):
+        deadline = time.monotonic() + timeout
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise RunnerError(f"{what}: no answer within {timeout:.0f} s")
+            time.sleep(0.005)
+        if future.result() is None:
+            raise RunnerError(f"{what}: failed ({future.exception()})")
+        return future.result()
+
+    def set_params(self, node: str, values: dict[str, Any], timeout: float = 20.0) -> None:
+        """Set parameters of ``node`` (all at once); RunnerError naming what was refused and why."""
+        from raspv_common.param_client import ParamClient
+
+        if not values:
+            return
+        client = ParamClient(self.node, node)
+        done = threading.Event()
+        result: list[Any] = []
+        try:
+            client.set_async(values, lambda r: (result.append(r), done.set()))
+            if not done.wait(timeout):
+                raise RunnerError(f"node {node} did not answer a parameter request within {timeout:.0f} s")
+        finally:
+            client.destroy()
+        refused = [f"{name}: {reason}" for name, ok, reason in result[0] if not ok]
+        if refused:
+            raise RunnerError(f"node {node} refused {'; '.join(refused)}")
+
+    def start_trial(self, x: float, y: float, yaw: float, goal: tuple[str, float, float, float],
+                    log_dir: str = "", run_name: str = "", timeout: float = 30.0):
+        req = self._StartTrial.Request(x=float(x), y=float(y), yaw=float(yaw), goal_name=goal[0], goal_x=float(goal[1]),
+                                       goal_y=float(goal[2]), goal_radius=float(goal[3]), log_dir=log_dir,
+                                       run_name=run_name)
+        res = self._wait(self.start_client.call_async(req), timeout, "starting the trial in the simulator")
+        if not res.success:
+            raise RunnerError(f"the simulator refused the trial: {res.message}")
+        with self.lock:
+            self.collision_events.clear()
+        return res
+
+    def end_trial(self, plot: bool = False, timeout: float = 60.0) -> tuple[dict[str, Any], float]:
+        res = self._wait(self.end_client.call_async(self._EndTrial.Request(plot=plot)), timeout,
+                         "ending the trial in the simulator")
+        return (json.loads(res.summary_json) if res.summary_json else {}), float(res.sim_time)
+
+    def show(self, info: dict[str, Any]) -> None:
+        """Publish instructions (latched) for the headset client and scripted subjects."""
+        self.pub_instructions.publish(self._String(data=json.dumps(info)))

@@ -1,0 +1,132 @@
+"""The experimenter's view and keys, and when a trial ends — as state machines without I/O (no
+rclpy, no terminal), so they are tested directly; :mod:`raspv_experiments.terminal` draws the
+line and reads the keys.
+
+Keys: ``p`` pause / continue (the world holds still; the trial clock, which is simulation time,
+stops with it), ``r`` repeat the current trial (it is recorded as ``repeated`` and run again),
+``s`` skip it (recorded as ``skipped``), ``q`` quit (the session can be resumed with
+``--resume``), Enter: start the trial / end a break when no headset client does.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+KEYS_HELP = "p pause · r repeat · s skip · q quit · Enter start"
+
+
+@dataclass
+class ExperimenterControl:
+    """Experimenter's requests, held until the runner takes them."""
+
+    paused: bool = False
+    request: str | None = None          # "repeat", "skip" or "quit"
+    start: bool = False                 # Enter: start the trial / end the break
+    message: str = ""
+
+    def key(self, key: str) -> None:
+        k = key.lower() if len(key) == 1 else key
+        if k == "p":
+            self.paused = not self.paused
+            self.message = "paused: the world holds still (p continues)" if self.paused else "continuing"
+        elif k in ("r", "s", "q"):
+            self.request = {"r": "repeat", "s": "skip", "q": "quit"}[k]
+            self.paused = False
+            self.message = {"repeat": "repeating this trial", "skip": "skipping this trial",
+                            "quit": "quitting (resume later with --resume)"}[self.request]
+        elif k in ("\n", "\r", "enter"):
+            self.start = True
+        else:
+            self.message = f"key {key!r} does nothing; {KEYS_HELP}"
+
+    def take_request(self) -> str | None:
+        req, self.request = self.request, None
+        return req
+
+    def take_start(self) -> bool:
+        start, self.start = self.start, False
+        return start
+
+
+@dataclass
+class TrialMonitor:
+    """Decides when a running trial ends: the base inside the goal region, the time limit (in
+    simulation time since the start), or the subject's abort. Positions count only once one
+    near the start pose came in (``armed``): poses still in flight from before the reset — the
+    previous trial may have ended in this goal — are ignored."""
+
+    goal_x: float
+    goal_y: float
+    goal_radius: float
+    time_limit: float
+    start_t: float
+    t: float = 0.0
+    start_x: float | None = None
+    start_y: float | None = None
+    arm_radius: float = 0.5
+    armed: bool = False
+    outcome: str | None = None
+    collisions: list[str] = field(default_factory=list)
+
+    @property
+    def elapsed(self) -> float:
+        return max(0.0, self.t - self.start_t)
+
+    def update(self, t: float | None = None, x: float | None = None, y: float | None = None) -> str | None:
+        """New sim time [s] and/or base position [m, W]; returns the outcome once decided."""
+        if self.outcome is not None:
+            return self.outcome
+        if t is not None and math.isfinite(t):
+            self.t = max(self.t, t)
+        if x is not None and y is not None and not self.armed:
+            self.armed = self.start_x is None or math.hypot(x - self.start_x, y - self.start_y) <= self.arm_radius
+        if self.armed and x is not None and y is not None and \
+                math.hypot(x - self.goal_x, y - self.goal_y) <= self.goal_radius:
+            self.outcome = "goal"
+        elif self.elapsed >= self.time_limit:
+            self.outcome = "time_limit"
+        return self.outcome
+
+    def abort(self) -> None:
+        if self.outcome is None:
+            self.outcome = "aborted"
+
+    def collision(self, what: str) -> None:
+        self.collisions.append(what)
+
+
+@dataclass
+class ViewState:
+    """What the experimenter's status line shows."""
+
+    done: int = 0                       # trials finished in the session
+    total: int = 0
+    index: int = 0                      # the current trial's planned index
+    label: str = ""
+    phase: str = "starting"             # starting, instructions, running, paused, break, finished
+    elapsed: float = 0.0                # s of simulation time in the trial
+    time_limit: float = 0.0
+    collisions: int = 0
+    last_hit: str = ""
+    message: str = ""
+
+
+def progress_bar(done: int, total: int, width: int = 20) -> str:
+    filled = 0 if total <= 0 else round(width * min(done, total) / total)
+    return "[" + "#" * filled + "." * (width - filled) + "]"
+
+
+def status_line(v: ViewState, width: int = 100) -> str:
+    """One line: progress over the session, the trial, its time, collisions, the last message."""
+    parts = [f"{progress_bar(v.done, v.total)} {v.done}/{v.total}"]
+    if v.index:
+        parts.append(f"trial {v.index}: {v.label}")
+    parts.append(v.phase)
+    if v.phase in ("running", "paused"):
+        parts.append(f"{v.elapsed:5.1f}/{v.time_limit:.0f} s")
+        parts.append(f"{v.collisions} collision{'s' if v.collisions != 1 else ''}"
+                     + (f" (last: {v.last_hit})" if v.last_hit else ""))
+    if v.message:
+        parts.append(v.message)
+    line = " | ".join(parts)
+    return line if len(line) <= width else line[: max(0, width - 1)] + "…"

@@ -1,0 +1,393 @@
+"""Running a session: the protocol's graph, and for each planned trial — set the condition's
+parameters, put the avatar at the start, show the instructions and wait for the subject's
+start, run until the goal, the time limit or an abort, then record (no rclpy here: the graph is
+reached through :class:`raspv_experiments.runner_node.GraphClient`).
+
+Humans walk in real time; scripted subjects run in **lockstep** (the simulator steps each time
+the subject answered the last frame, in simulation time, as fast as the machine allows) and
+**headless** (the spv node publishes each frame at once, no display loop, no headset bridge).
+"""
+from __future__ import annotations
+
+import copy
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from raspv_bringup.graph import Graph, NodeEntry
+from raspv_bringup.supervisor import Supervisor, _die_with_parent
+from raspv_experiments.design import PlannedTrial, plan_session, subject_number
+from raspv_experiments.metrics import trajectory_record, trial_metrics
+from raspv_experiments.protocol import Protocol, Task
+from raspv_experiments.runner_node import GraphClient, RunnerError
+from raspv_experiments.session import SessionError, SessionFolder, now_iso
+from raspv_experiments.session_control import ExperimenterControl, TrialMonitor, ViewState
+from raspv_experiments.world_geometry import world_geometry
+
+STALL_S = 60.0            # wall seconds without the simulation clock advancing: the graph is stuck
+START_TIMEOUT_S = 180.0   # wall seconds for a graph to come up
+
+
+@dataclass
+class RunOptions:
+    out: Path
+    subject: str                      # e.g. S07, or scripted-follow_path-3
+    policy: str | None = None         # scripted subject's policy (None: a person)
+    number: int | None = None         # subject number (default: the digits of the id)
+    resume: bool = False
+    lockstep: bool | None = None      # default: on for scripted subjects
+    headless: bool | None = None      # default: on for scripted subjects
+    bag: bool | None = None           # default: the protocol's record.bag
+    keys: bool = True                 # read the experimenter's keys from the terminal
+    subject_params: dict[str, Any] = field(default_factory=dict)
+    stop: threading.Event = field(default_factory=threading.Event)   # set to stop between two polls
+
+    @property
+    def scripted(self) -> bool:
+        return self.policy is not None
+
+
+def parse_subject(text: str) -> tuple[str, str | None, int]:
+    """``S07`` → (S07, None, 7); ``scripted:follow_path[:3]`` → (scripted-follow_path-3, follow_path, 3)."""
+    from raspv_experiments.subject_params import POLICY_NAMES
+
+    if text.startswith("scripted:"):
+        parts = text.split(":")
+        policy = parts[1] if len(parts) > 1 else ""
+        if policy not in POLICY_NAMES:
+            raise ValueError(f"--subject {text}: unknown policy {policy!r}; use scripted:POLICY[:N] with POLICY one of "
+                             f"{', '.join(POLICY_NAMES)}")
+        try:
+            number = int(parts[2]) if len(parts) > 2 else 1
+        except ValueError:
+            raise ValueError(f"--subject {text}: N must be a number (the virtual subject), e.g. scripted:{policy}:3") from None
+        if number < 1 or len(parts) > 3:
+            raise ValueError(f"--subject {text}: expected scripted:POLICY[:N] with N >= 1")
+        return f"scripted-{policy}-{number}", policy, number
+    if not text or any(c in text for c in "/\\ :"):
+        raise ValueError(f"--subject {text!r}: use an id without spaces, slashes or colons, e.g. S07")
+    return text, None, subject_number(text)
+
+
+def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int) -> Graph:
+    """The protocol's graph for one world, adapted to the subject: the task's world in the
+    simulator (and the planner), no run log (trials log themselves), and for scripted subjects
+    lockstep stepping, sim time everywhere, a headless spv node, no headset bridge, and the
+    subject node."""
+    g = copy.deepcopy(protocol.graph)
+    lockstep = options.scripted if options.lockstep is None else options.lockstep
+    headless = options.scripted if options.headless is None else options.headless
+    nodes: list[NodeEntry] = []
+    for n in g.nodes:
+        if headless and n.kind == "bridge":
+            continue
+        if n.kind == "sim":
+            n.params.update(world=world, log_dir="", log_rate=protocol.record.trajectory_rate)
+            if lockstep:
+                n.params["step_mode"] = "lockstep"
+        elif lockstep:
+            n.params["use_sim_time"] = True
+        if n.kind == "planner" and not n.params.get("map"):
+            n.params["world"] = world
+        if n.kind == "spv" and headless:
+            n.params["headless"] = True
+        nodes.append(n)
+    if not any(n.kind == "sim" for n in nodes):
+        raise SessionError(f"{protocol.path}: graph: experiments need a 'sim' node (trials reset the virtual world)")
+    if options.scripted:
+        if not any(n.kind == "spv" for n in nodes):
+            raise SessionError(f"{protocol.path}: graph: a scripted subject needs an 'spv' node (it sees /spv/frame)")
+        params = {"policy": options.policy, "seed": seed, **options.subject_params}
+        if lockstep:
+            params["use_sim_time"] = True
+        nodes.append(NodeEntry("subject", "subject", False, params))
+    g.nodes = nodes
+    return g
+
+
+def _world_groups(protocol: Protocol, trials: list[PlannedTrial]) -> list[tuple[str, list[PlannedTrial]]]:
+    """Consecutive trials in the same world (the graph restarts when the world changes)."""
+    groups: list[tuple[str, list[PlannedTrial]]] = []
+    for t in trials:
+        world = protocol.task(t.task).world
+        if groups and groups[-1][0] == world:
+            groups[-1][1].append(t)
+        else:
+            groups.append((world, [t]))
+    return groups
+
+
+class SessionRunner:
+    """Runs (or resumes) one subject's session; ``view`` shows progress (a TerminalView)."""
+
+    def __init__(self, protocol: Protocol, options: RunOptions, view, say: Callable[[str], None] | None = None) -> None:
+        self.protocol = protocol
+        self.options = options
+        self.view = view
+        self.say = say or view.say
+        self.control = ExperimenterControl()
+        self.state = ViewState()
+        self.subject = options.subject
+        self.number = options.number if options.number is not None else subject_number(self.subject)
+        self.folder = SessionFolder.for_subject(options.out, protocol, self.subject)
+        self.plan = plan_session(protocol, self.subject)
+        self.client: GraphClient | None = None
+        self.supervisor: Supervisor | None = None
+        self._sup_thread: threading.Thread | None = None
+        self._graph_log = None
+
+    # -- session ----------------------------------------------------------------------------
+    def prepare(self) -> list[PlannedTrial]:
+        """Create the session folder, or check it for --resume; returns the trials still to run."""
+        f = self.folder
+        if f.exists():
+            if not self.options.resume:
+                done = len(f.done())
+                raise SessionError(f"{f.root} already holds this subject's session ({done} of {len(self.plan)} trials "
+                                   "done): add --resume to continue it, or use another --out or subject id")
+            f.check_resumable(self.protocol, self.subject)
+            done = f.done()
+            todo = [t for t in self.plan if t.index not in done]
+            f.event("resumed", next_trial=todo[0].index if todo else None, done=len(done))
+            self.say(f"resuming {f.root}: {len(done)} of {len(self.plan)} trials done"
+                     + (f", next: trial {todo[0].index} ({todo[0].label})" if todo else ""))
+            return todo
+        if self.options.resume:
+            self.say(f"no session in {f.root} yet: starting it")
+        f.create(self.protocol, self.subject, self.plan,
+                 {"subject_kind": "scripted" if self.options.scripted else "person", "policy": self.options.policy,
+                  "subject_params": self.options.subject_params, "argv": sys.argv})
+        f.event("started", trials=len(self.plan))
+        return list(self.plan)
+
+    def run(self) -> int:
+        todo = self.prepare()
+        self.state.total = len(self.plan)
+        self.state.done = len(self.plan) - len(todo)
+        if not todo:
+            self.say(f"session complete: {self.folder.trials_path}")
+            return 0
+        try:
+            for world, trials in _world_groups(self.protocol, todo):
+                self._start_graph(world)
+                try:
+                    for trial in trials:
+                        if self._run_planned(trial) == "quit":
+                            self.folder.event("quit", at_trial=trial.index)
+                            self.say(f"stopped at trial {trial.index}; continue with --resume")
+                            return 3
+                finally:
+                    self._stop_graph()
+        finally:
+            self.show(phase="finished")
+        self.folder.event("finished")
+        self.say(f"session complete: {len(self.plan)} trials in {self.folder.trials_path}")
+        return 0
+
+    def show(self, **changes: Any) -> None:
+        for k, v in changes.items():
+            setattr(self.state, k, v)
+        self.state.message = self.control.message
+        self.view.show(self.state)
+
+    # -- graph ------------------------------------------------------------------------------
+    def _start_graph(self, world: str) -> None:
+        graph = session_graph(self.protocol, world, self.options, self.number)
+        self.folder.root.mkdir(parents=True, exist_ok=True)
+        self._graph_log = open(self.folder.root / "graph.log", "a", buffering=1)
+        self._graph_log.write(f"--- {now_iso()}: graph for world {world}\n")
+        self.supervisor = Supervisor(graph, out=self._graph_log)
+        self.supervisor.start()             # main thread: the nodes die with this process
+        self._sup_thread = threading.Thread(target=self.supervisor.run, args=(lambda: not self.options.stop.is_set(),),
+                                            daemon=True, name="graph-supervisor")
+        self._sup_thread.start()
+        self.show(phase="starting", message="")
+        if self.client is None:
+            self.client = GraphClient()
+        controlled = [n for n in self.protocol.controlled if any(e.name == n for e in graph.nodes)]
+        self.client.wait_ready(controlled, START_TIMEOUT_S, alive=self._sup_thread.is_alive)
+
+    def _stop_graph(self) -> None:
+        if self.supervisor is not None:
+            self.supervisor.request_stop()
+            if self._sup_thread is not None:
+                self._sup_thread.join(timeout=30.0)
+            self.supervisor = None
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self._graph_log is not None:
+            self._graph_log.close()
+            self._graph_log = None
+
+    def _check_graph(self) -> None:
+        if self._sup_thread is not None and not self._sup_thread.is_alive() and not self.options.stop.is_set():
+            raise SessionError(f"a node of the graph ended; see {self.folder.root / 'graph.log'}")
+        if self.options.stop.is_set():
+            raise KeyboardInterrupt
+
+    # -- one trial --------------------------------------------------------------------------
+    def _run_planned(self, trial: PlannedTrial) -> str:
+        """Run ``trial`` until it is completed or skipped (repeating when asked); "quit" to stop."""
+        while True:
+            status = self._run_attempt(trial)
+            if status in ("completed", "skipped"):
+                self.state.done += 1
+                return status
+            if status == "quit":
+                return "quit"
+
+    def _apply_condition(self, trial: PlannedTrial, task: Task) -> dict[str, dict[str, Any]]:
+        params = self.protocol.trial_params(trial.condition)
+        planners = [n.name for n in self.protocol.graph.nodes if n.kind == "planner"]
+        if planners:        # the planner guides to where the body can stand in the goal region
+            import numpy as np
+
+            g = np.array([task.goal.x, task.goal.y])
+            target = world_geometry(task.world).reachable_point(g, task.goal.radius)
+            target = g if target is None else target
+            for name in planners:
+                params.setdefault(name, {}).update(goal=[float(target[0]), float(target[1])], goal_name="")
+        for node, values in params.items():
+            self.client.set_params(node, values)
+        return params
+
+    def _wait_start(self, info: dict[str, Any]) -> bool:
+        """Show instructions until the subject (headset or scripted) or the experimenter (Enter)
+        starts; False if the experimenter quit meanwhile."""
+        self.client.take_responses()
+        self.client.show({**info, "waiting": True})
+        self.control.take_start()
+        while True:
+            self._check_graph()
+            if any(r.get("action") == "start" and str(r.get("id", info["id"])) == info["id"]
+                   for r in self.client.take_responses()) or self.control.take_start():
+                return True
+            if self.control.request == "quit":
+                return False
+            self.show()
+            time.sleep(0.02)
+
+    def _run_attempt(self, trial: PlannedTrial) -> str:
+        task = self.protocol.task(trial.task)
+        self.show(index=trial.index, label=trial.label, phase="instructions", elapsed=0.0,
+                  time_limit=task.time_limit, collisions=0, last_hit="")
+        params = self._apply_condition(trial, task)
+        goal = (f"task:{task.goal.label}", task.goal.x, task.goal.y, task.goal.radius)
+        yaw = math.radians(task.start_yaw_deg)
+        self.client.start_trial(task.start_x, task.start_y, yaw, goal)          # stand at the start meanwhile
+        run_name, attempt = self.folder.attempt_dir(trial)
+        key = f"{self.subject}-{trial.index}-{attempt}"
+        if trial.break_before and attempt == 1:
+            self.show(phase="break")
+            if not self._wait_start({"id": key + "-break", "trial": trial.index, "title": "Break",
+                                     "text": "Take a break. Start the next block when you are ready."}):
+                return "quit"
+        self.show(phase="instructions")
+        title = f"Trial {trial.index} of {len(self.plan)}" + (" (practice)" if trial.practice else "")
+        if not self._wait_start({"id": key, "trial": trial.index, "title": title,
+                                 "text": task.instructions or f"Reach the goal ({task.goal.label})."}):
+            return "quit"
+        res = self.client.start_trial(task.start_x, task.start_y, yaw, goal,
+                                      str(self.folder.root / "trials"), run_name)
+        self.client.show({"id": key, "trial": trial.index, "title": title, "text": "", "waiting": False})
+        run_dir, start_t = Path(res.run_dir), float(res.sim_time)
+        bag = self._start_bag(run_dir)
+        monitor = TrialMonitor(task.goal.x, task.goal.y, task.goal.radius, task.time_limit, start_t, start_t,
+                               task.start_x, task.start_y)
+        request = self._monitor(monitor)
+        self._stop_bag(bag)
+        self.client.end_trial(plot=False)
+        end_t = min(monitor.t, start_t + task.time_limit)      # when it ended (the sim may have stepped on)
+        if self.control.paused:
+            self.control.paused = False
+            self.client.set_params("sim", {"paused": False})
+        status = {None: "completed", "repeat": "repeated", "skip": "skipped", "quit": "interrupted"}[request]
+        record = self._record(trial, task, params, status, attempt, run_dir, start_t, end_t, monitor)
+        self.folder.record(record)
+        if status != "completed":
+            self.folder.event(status, trial=trial.index, attempt=attempt)
+        m = record.get("metrics", {})
+        self.say(f"trial {trial.index} ({trial.label}): {status}"
+                 + (f", {m.get('outcome')} in {m.get('completion_time_s', 0):.1f} s, {m.get('collisions', 0)} collisions"
+                    if status == "completed" else ""))
+        return "quit" if request == "quit" else status
+
+    def _monitor(self, monitor: TrialMonitor) -> str | None:
+        """Poll until the trial ends; returns the experimenter's request (repeat/skip/quit) or None."""
+        paused = False
+        while True:
+            self._check_graph()
+            t, pose, still = self.client.state()
+            if self.control.paused != paused:
+                paused = self.control.paused
+                self.client.set_params("sim", {"paused": paused})
+                self.show(phase="paused" if paused else "running")
+            if not paused and still > STALL_S:
+                raise SessionError(f"the simulation clock did not advance for {STALL_S:.0f} s; see "
+                                   f"{self.folder.root / 'graph.log'}")
+            for c in self.client.take_collisions():
+                monitor.collision(f"{c['class']}:{c['name']}")
+            if any(r.get("action") == "abort" for r in self.client.take_responses()):
+                monitor.abort()
+            request = self.control.take_request()
+            if request is not None:
+                return request
+            outcome = monitor.update(t, *(pose if pose else (None, None)))
+            self.show(phase="paused" if paused else "running", elapsed=monitor.elapsed,
+                      collisions=len(monitor.collisions), last_hit=monitor.collisions[-1] if monitor.collisions else "")
+            if outcome is not None:
+                return None
+            time.sleep(0.01)
+
+    def _record(self, trial: PlannedTrial, task: Task, params: dict, status: str, attempt: int, run_dir: Path,
+                start_t: float, end_t: float, monitor: TrialMonitor) -> dict[str, Any]:
+        record: dict[str, Any] = {
+            "protocol": self.protocol.name, "subject": self.subject, "session": str(self.folder.root),
+            **asdict(trial), "attempt": attempt, "status": status, "world": task.world,
+            "start": [task.start_x, task.start_y, task.start_yaw_deg],
+            "goal": {"x": task.goal.x, "y": task.goal.y, "radius": task.goal.radius, "label": task.goal.label},
+            "time_limit_s": task.time_limit, "params": params, "run_dir": str(run_dir),
+            "sim_start_s": round(start_t, 4), "sim_end_s": round(end_t, 4), "finished": now_iso(),
+            "policy": self.options.policy}
+        if status == "completed":
+            geometry = world_geometry(task.world)
+            _, shortest = geometry.shortest_path((task.start_x, task.start_y), (task.goal.x, task.goal.y), task.goal.radius)
+            metrics = trial_metrics(run_dir, start_t, end_t, monitor.outcome == "aborted", task.time_limit,
+                                    f"task:{task.goal.label}", shortest, geometry)
+            record["metrics"] = metrics.as_dict()
+            record["trajectory"] = trajectory_record(run_dir, start_t, end_t)
+        if self.options.bag if self.options.bag is not None else self.protocol.record.bag:
+            record["bag"] = str(run_dir / "bag")
+        return record
+
+    # -- bags -------------------------------------------------------------------------------
+    def _start_bag(self, run_dir: Path) -> subprocess.Popen | None:
+        if not (self.options.bag if self.options.bag is not None else self.protocol.record.bag):
+            return None
+        cmd = [sys.executable, "-m", "raspv_bringup.cli", "bag", "record", "-o", str(run_dir / "bag"),
+               *self.protocol.record.bag_topics]
+        log = open(run_dir / "bag.log", "w")
+        return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                env=os.environ.copy(), start_new_session=True, preexec_fn=_die_with_parent)
+
+    @staticmethod
+    def _stop_bag(proc: subprocess.Popen | None) -> None:
+        if proc is None:
+            return
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+    def close(self) -> None:
+        self._stop_graph()

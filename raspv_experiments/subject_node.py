@@ -1,0 +1,101 @@
+"""`subject` node: a scripted subject (virtual patient) in the graph.
+
+Sees only what a subject sees: ``/spv/map`` (where the phosphenes are) and ``/spv/frame`` (the
+brightness of each). For every frame it publishes a walking command on ``/cmd_vel`` and the head
+it holds on ``/head/orientation``, and answers the frame on ``/sim/lockstep`` (TwistStamped,
+stamped with the frame's source stamp) so a simulator in lockstep steps at once. It presses
+'start' when the experiment shows instructions (``/experiment/instructions`` →
+``/experiment/response``). The policies are in :mod:`raspv_experiments.policies`.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, TwistStamped
+from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from std_msgs.msg import String
+
+from raspv_common import topics
+from raspv_common.node import RaspvNode, run_node
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
+from raspv_experiments.subject_params import PARAMS
+from raspv_sim.avatar import head_quaternion
+
+
+def policy_config(p: dict, seed: int | None = None) -> PolicyConfig:
+    return PolicyConfig(max_linear=p["max_linear"], max_angular=p["max_angular"], head_pitch_deg=p["head_pitch_deg"],
+                        eye_height=p["eye_height"], lookahead=p["lookahead"], bright_ratio=p["bright_ratio"],
+                        noise=p["noise"], seed=p["seed"] if seed is None else seed)
+
+
+class SubjectNode(RaspvNode):
+    def __init__(self) -> None:
+        super().__init__("subject", PARAMS)
+        self.layout: PhospheneLayout | None = None
+        self.policy = None
+        self.trial_seed = self.params["seed"]
+        self.answered_instructions = ""
+        self.frames = 0
+        self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
+        self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
+        self.pub_step = self.create_publisher(TwistStamped, topics.SIM_LOCKSTEP, COMMAND_QOS)
+        self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
+        self.create_subscription(PhospheneMap, topics.SPV_MAP, self.on_map, LATCHED_QOS)
+        self.create_subscription(PhospheneFrame, topics.SPV_FRAME, self.on_frame, SENSOR_QOS)
+        self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
+        self.get_logger().info(f"scripted subject: policy {self.params['policy']}, seed {self.params['seed']}")
+
+    def on_parameters(self, changes):
+        if self.layout is not None:
+            merged = {**self.params, **changes}
+            self.policy = make_policy(merged["policy"], self.layout, policy_config(merged, self.trial_seed))
+        return None
+
+    def on_map(self, msg: PhospheneMap) -> None:
+        self.layout = PhospheneLayout(np.asarray(msg.x, float), np.asarray(msg.y, float), int(msg.width),
+                                      int(msg.height), float(msg.focal_px), int(msg.map_id))
+        self.policy = make_policy(self.params["policy"], self.layout, policy_config(self.params, self.trial_seed))
+
+    def on_instructions(self, msg: String) -> None:
+        try:
+            info = json.loads(msg.data)
+        except json.JSONDecodeError:
+            return
+        key = str(info.get("id", ""))
+        if not info.get("waiting") or key == self.answered_instructions:
+            return
+        self.answered_instructions = key
+        # a new trial: the same virtual subject, its noise reseeded per trial (reproducible)
+        self.trial_seed = int(self.params["seed"]) * 100_003 + int(info.get("trial", 0))
+        if self.layout is not None:
+            self.policy = make_policy(self.params["policy"], self.layout, policy_config(self.params, self.trial_seed))
+        if self.params["auto_start"]:
+            self.pub_response.publish(String(data=json.dumps({"action": "start", "id": key, "by": "subject"})))
+
+    def on_frame(self, msg: PhospheneFrame) -> None:
+        command = Command(0.0, 0.0, 0.0)
+        if self.policy is not None and msg.map_id == self.layout.map_id:
+            brightness = np.asarray(msg.brightness, dtype=float)
+            if brightness.shape == self.layout.x.shape:
+                command = self.policy.act(brightness)
+        self.frames += 1
+        twist = Twist()
+        twist.linear.x, twist.angular.z = command.linear, command.angular
+        q = head_quaternion(0.0, command.head_pitch, 0.0)
+        self.pub_head.publish(QuaternionStamped(header=self.header("base"),
+                                                quaternion=Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])))
+        self.pub_cmd.publish(twist)
+        answer = TwistStamped(twist=twist)
+        answer.header.stamp = msg.source_stamp
+        answer.header.frame_id = "base"
+        self.pub_step.publish(answer)
+
+
+def main(argv=None) -> None:
+    run_node(SubjectNode, argv)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,95 @@
+"""Repeated-measures statistics against scipy, and the report's CSV and HTML from trial records."""
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from raspv_experiments.report import build_report, find_records, tidy_rows, ReportError
+from raspv_experiments.repeated_measures import compare_conditions, holm, wilson_interval
+from raspv_experiments.session import append_jsonl
+
+
+def test_holm():
+    assert holm([0.01, 0.04, 0.03]) == pytest.approx([0.03, 0.06, 0.06])
+    assert holm([0.5, float("nan"), 0.01]) == pytest.approx([0.5, float("nan"), 0.02], nan_ok=True)
+
+
+def test_friedman_and_wilcoxon_match_scipy():
+    rng = np.random.default_rng(4)
+    subjects = [f"S{i:02d}" for i in range(1, 9)]
+    values = {}
+    for i, s in enumerate(subjects):
+        base = rng.normal(30, 5)
+        for c, shift in (("a", 0.0), ("b", 4.0), ("c", 8.0)):
+            values[(s, c)] = list(base + shift + rng.normal(0, 2, size=3))
+    res = compare_conditions("time", values, ["a", "b", "c"])
+    table = np.array([[np.median(values[(s, c)]) for c in "abc"] for s in subjects])
+    f = stats.friedmanchisquare(*table.T)
+    assert res.friedman_statistic == pytest.approx(f.statistic) and res.friedman_p == pytest.approx(f.pvalue)
+    pairs = {(p.a, p.b): p for p in res.pairs}
+    w = stats.wilcoxon(table[:, 0], table[:, 2])
+    assert pairs[("a", "c")].p == pytest.approx(w.pvalue)
+    assert pairs[("a", "c")].p_holm == pytest.approx(min(1.0, 3 * min(p.p for p in res.pairs)))
+    assert res.note == ""                                       # 8 subjects: tests can show a difference
+
+
+def test_small_samples_incomplete_subjects_and_ties():
+    values = {("S1", "a"): [1.0], ("S1", "b"): [2.0], ("S2", "a"): [1.0], ("S2", "b"): [3.0], ("S3", "a"): [1.0]}
+    res = compare_conditions("x", values, ["a", "b"])
+    assert res.subjects == ["S1", "S2"]                        # S3 lacks b: complete cases only
+    assert "cannot give p < 0.5" in res.note
+    tied = compare_conditions("y", {("S1", "a"): [1.0], ("S1", "b"): [1.0], ("S2", "a"): [2.0], ("S2", "b"): [2.0]},
+                              ["a", "b"])
+    assert tied.pairs[0].note == "no difference in any subject" and math.isnan(tied.pairs[0].p)
+    assert "no test possible" in compare_conditions("z", {("S1", "a"): [1.0], ("S1", "b"): [2.0]}, ["a", "b"]).note
+    lo, hi = wilson_interval(3, 10)
+    assert lo == pytest.approx(0.1078, abs=1e-3) and hi == pytest.approx(0.6032, abs=1e-3)
+
+
+def fake_session(root, subject, times):
+    """trials.jsonl of a session with completed trials (condition → list of completion times)."""
+    path = root / "example" / subject / "trials.jsonl"
+    path.parent.mkdir(parents=True)
+    index = 0
+    for cond, ts in times.items():
+        for rep, t in enumerate(ts, start=1):
+            index += 1
+            ok = t < 30
+            append_jsonl(path, {
+                "protocol": "example", "subject": subject, "condition": cond, "task": "hallway", "block": 1,
+                "index": index, "repetition": rep, "practice": False, "attempt": 1, "status": "completed",
+                "world": None, "start": [1.0, 1.5, 0.0], "goal": {"x": 8.6, "y": 1.5, "radius": 0.8, "label": "end"},
+                "time_limit_s": 30.0, "run_dir": "", "session": str(path.parent),
+                "metrics": {"outcome": "goal" if ok else "time_limit", "success": ok, "completion_time_s": t,
+                            "duration_s": t, "path_length_m": 7.0, "shortest_path_m": 6.8,
+                            "path_efficiency": 0.97 if ok else float("nan"), "collisions": rep - 1,
+                            "collided_with": ["box:crate"] * (rep - 1), "min_clearance_m": 0.2,
+                            "head_rotation_deg": 10.0, "head_rotation_deg_per_s": 1.0},
+                "trajectory": {"t": [0, 1], "x": [1.0, 2.0], "y": [1.5, 1.5], "yaw": [0, 0]}})
+    append_jsonl(path, {"protocol": "example", "subject": subject, "condition": "depth", "task": "hallway",
+                        "index": index + 1, "repetition": 1, "practice": False, "attempt": 1, "status": "skipped"})
+
+
+def test_report_from_sessions(tmp_path):
+    fake_session(tmp_path / "s", "S01", {"depth": [12.0, 11.0, 10.0], "downsampling": [25.0, 31.0, 22.0]})
+    fake_session(tmp_path / "s", "S02", {"depth": [14.0, 13.0, 12.5], "downsampling": [29.0, 24.0, 40.0]})
+    records, sessions = find_records([tmp_path / "s"])
+    assert len(records) == 14 and len(sessions) == 2
+    html_path = build_report([tmp_path / "s"], tmp_path / "report", "example")
+    rows = list(csv.DictReader(open(tmp_path / "report" / "trials.csv")))
+    assert len(rows) == 14 and {r["status"] for r in rows} == {"completed", "skipped"}
+    assert rows[0]["collided_with"] == "" and rows[1]["collided_with"] == "box:crate"
+    page = html_path.read_text()
+    for name in ("completion_time", "collisions", "success_rate", "path_efficiency", "trajectories-hallway", "learning"):
+        assert (tmp_path / "report" / "figures" / f"{name}.png").stat().st_size > 1000
+        assert (tmp_path / "report" / "figures" / f"{name}.pdf").exists()
+        assert f"figures/{name}.png" in page
+    assert "Friedman" in page and "Wilcoxon" in page and "cannot give p &lt; 0.5" in page
+    assert "6/6 (100 %)" in page and "4/6 (67 %)" in page
+    with pytest.raises(ReportError, match="no trial records"):
+        build_report([tmp_path / "report"], tmp_path / "r2")
+    assert [r["index"] for r in tidy_rows(records) if r["subject"] == "S01"] == list(range(1, 8))

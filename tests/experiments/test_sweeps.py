@@ -1,0 +1,58 @@
+"""Sweeps of scripted subjects: worker processes on this machine (each graph on its own ROS domain) and
+the same sweep file on a local Ray instance; then the report on the sweep's sessions."""
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from raspv_experiments.protocol import EXPERIMENTS_DIR
+from raspv_experiments.report import build_report
+from raspv_experiments.session import read_jsonl
+from raspv_experiments.sweep import load_sweep, run_sweep
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow]
+
+
+def short_sweep(tmp_path, subjects: int = 2):
+    """The example protocol with 5 s trials, swept over two modes."""
+    (tmp_path / "worlds").mkdir(exist_ok=True)
+    (tmp_path / "worlds" / "hallway.yaml").write_text((EXPERIMENTS_DIR / "worlds" / "hallway.yaml").read_text())
+    doc = yaml.safe_load((EXPERIMENTS_DIR / "example.yaml").read_text())
+    doc["tasks"]["hallway"]["time_limit"] = 5
+    (tmp_path / "short.yaml").write_text(yaml.safe_dump(doc))
+    (tmp_path / "sweep.yaml").write_text(yaml.safe_dump({
+        "name": "short_sweep", "protocol": "short.yaml", "policy": "wander_avoid", "subjects": subjects,
+        "factors": {"spv.mode": ["depth", "grey"]}, "repetitions": 1}))
+    return load_sweep(tmp_path / "sweep.yaml")
+
+
+def check_sessions(results, out, subjects):
+    assert sorted(r["subject"] for r in results) == [f"scripted-wander_avoid-{n}" for n in range(1, subjects + 1)]
+    assert all(r["code"] == 0 for r in results), [r["log"] for r in results]
+    assert len({r["domain"] for r in results}) == len(results) or len(results) == 1   # private domains
+    for r in results:
+        records = read_jsonl(out / "sessions" / "short_sweep" / r["subject"] / "trials.jsonl")
+        assert [x["condition"] for x in records] and {x["status"] for x in records} == {"completed"}
+        assert sorted(x["condition"] for x in records) == ["mode=depth", "mode=grey"]
+        assert all(0 < x["metrics"]["duration_s"] <= 5.2 for x in records)
+
+
+def test_sweep_on_worker_processes(tmp_path):
+    sweep = short_sweep(tmp_path)
+    out = tmp_path / "out"
+    results = run_sweep(sweep, out, workers=2, say=lambda s: None)
+    check_sessions(results, out, 2)
+    page = build_report([out], tmp_path / "report").read_text()
+    assert "4 trial records" in page and "mode=depth" in page
+
+
+def test_the_same_sweep_on_a_local_ray_instance(tmp_path):
+    ray = pytest.importorskip("ray", reason="Ray is not installed (pip install -e '.[cluster]')")
+    sweep = short_sweep(tmp_path, subjects=1)
+    out = tmp_path / "out"
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
+    try:
+        results = run_sweep(sweep, out, ray_address="local", say=lambda s: None)
+    finally:
+        ray.shutdown()
+    check_sessions(results, out, 1)

@@ -1,0 +1,184 @@
+"""Hostile-but-fair clients against the headset server core on loopback (issue 16, point 4):
+slot exhaustion, a `bye` on every refusal, a prompt close after refusal, slots freed at once.
+Every loop is bounded; the timeouts below are failure bounds, not measurements."""
+from __future__ import annotations
+
+import asyncio
+import base64
+import os
+
+from websockets.exceptions import ConnectionClosed
+from websockets.frames import Frame, Opcode
+
+from raspv_hmd import protocol as P
+
+from .conftest import TcpClient, ws_connect, ws_hello, ws_next_json
+
+WS_CLOSE_LINGER_S = 10.0      # what a client that stops reading used to cost (websockets' default close_timeout)
+
+
+def test_a_controlling_headset_always_gets_a_slot(start_server, server_events):
+    """16 local clients that only ping hold every slot; a headset that wants control still gets in
+    (a passive client is evicted with a `bye` saying why); a watcher arriving then is refused."""
+    server = start_server(max_clients=16)
+
+    async def run():
+        pingers = []
+        for i in range(16):
+            ws, welcome = await ws_hello(server, name=f"pinger {i}")
+            assert welcome["type"] == "welcome"
+            pingers.append(ws)
+        for i, ws in enumerate(pingers):
+            await ws.send(P.client_message("ping", t=i))
+            await ws_next_json(ws, "pong")
+        controller = server.stats().clients[0].name
+        headset, welcome = await ws_hello(server, name="headset", role="control")
+        assert welcome["type"] == "welcome", welcome
+        stats = server.stats()
+        names = [c.name for c in stats.clients]
+        assert len(names) == 16 and "headset" in names and controller in names
+        evicted = [ws for ws, i in zip(pingers, range(16)) if f"pinger {i}" not in names]
+        assert len(evicted) == 1
+        bye = await ws_next_json(evicted[0], "bye")
+        assert "evicted" in bye["reason"] and "control" in bye["reason"]
+        # a passive watcher never evicts anyone: the server is full for it
+        watcher, answer = await ws_hello(server, name="watcher", role="watch")
+        assert answer["type"] == "bye" and "full" in answer["reason"]
+        for ws in [*pingers, headset, watcher]:
+            await ws.close()
+
+    asyncio.run(run())
+    assert any("evicted" in e for e in server_events)
+
+
+def test_a_watcher_is_evicted_before_a_client_waiting_for_control(start_server):
+    server = start_server(max_clients=3)
+
+    async def run():
+        first, _ = await ws_hello(server, name="controller")
+        waiting, _ = await ws_hello(server, name="waiting", role="control")
+        watcher, _ = await ws_hello(server, name="watcher", role="watch")
+        headset, welcome = await ws_hello(server, name="headset")
+        assert welcome["type"] == "welcome"
+        assert (await ws_next_json(watcher, "bye"))["reason"].startswith("evicted")
+        assert sorted(c.name for c in server.stats().clients) == ["controller", "headset", "waiting"]
+        for ws in (first, waiting, watcher, headset):
+            await ws.close()
+
+    asyncio.run(run())
+
+
+def test_every_refusal_says_bye(start_server):
+    """Whatever the reason a connection is refused, the client is told why before the close."""
+    server = start_server(max_clients=1, hello_timeout_s=0.3, token="secret")
+
+    async def run():
+        ws = await ws_connect(server)
+        await ws.send(b"\x00\x01 a binary hello")
+        assert "JSON text" in (await ws_next_json(ws, "bye"))["reason"]
+        await _ws_closed(ws)
+        ws = await ws_connect(server)                         # silent: no hello in time
+        assert "no hello" in (await ws_next_json(ws, "bye"))["reason"]
+        await _ws_closed(ws)
+        ws, bye = await ws_hello(server, token="wrong")
+        assert bye["type"] == "bye" and "token" in bye["reason"]
+        await _ws_closed(ws)
+        tcp = await TcpClient.open(server)
+        await tcp.send(b"\x00binary", kind=P.TCP_FRAME)         # a frame-kind message as hello
+        assert "JSON" in (await tcp.next_json("bye"))["reason"]
+        assert await tcp.closed_by_server(5.0)
+        tcp = await TcpClient.open(server)
+        tcp.writer.write(P.TCP_HEADER.pack(10_000_000, P.TCP_JSON))   # announces 10 MB
+        assert "limit" in (await tcp.next_json("bye"))["reason"]
+        assert await tcp.closed_by_server(5.0)
+        first, welcome = await ws_hello(server, token="secret")
+        assert welcome["type"] == "welcome"
+        second, bye = await ws_hello(server, token="secret", role="watch")
+        assert bye["type"] == "bye" and "full" in bye["reason"]
+        await second.close()
+        await first.close()
+
+    asyncio.run(run())
+    rejected = server.stats().rejected
+    assert rejected == {"binary": 1, "hello_timeout": 1, "token": 1, "bad_kind": 1, "oversized": 1, "full": 1}, rejected
+
+
+def test_a_client_dropped_for_refused_messages_is_closed_promptly_even_if_it_stops_reading(start_server):
+    """20 refused messages from a client that reads nothing: the server says bye and closes the
+    TCP connection itself instead of waiting for a closing handshake that never comes."""
+    server = start_server(max_refused=20)
+
+    async def run():
+        reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
+        key = base64.b64encode(os.urandom(16)).decode()
+        writer.write((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nUpgrade: websocket\r\n"
+                      f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+        await writer.drain()
+        assert b" 101 " in await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
+        frames = [P.client_message("hello", name="flooder")] + ["junk"] * 20
+        for text in frames:
+            writer.write(Frame(Opcode.TEXT, text.encode()).serialize(mask=True))
+        await writer.drain()
+        # never answer the server's close frame: only the server can end the connection now
+        data = b""
+        try:
+            while chunk := await asyncio.wait_for(reader.read(65536), WS_CLOSE_LINGER_S / 2):
+                data += chunk
+        except ConnectionError:
+            pass
+        assert b'"type":"bye"' in data and b"refused" in data
+        writer.close()
+
+    asyncio.run(run())
+    assert server.stats().dropped == {"abuse": 1}
+
+
+def test_tcp_client_that_stops_reading_is_closed_promptly_after_its_refusals(start_server):
+    server = start_server(max_refused=20)
+
+    async def run():
+        tcp = await TcpClient.open(server)
+        await tcp.send(P.client_message("hello", name="flooder", role="watch"))
+        for _ in range(25):
+            await tcp.send("junk")
+        assert await tcp.closed_by_server(WS_CLOSE_LINGER_S / 2)
+
+    asyncio.run(run())
+    assert server.stats().dropped == {"abuse": 1}
+
+
+def test_slots_are_freed_as_soon_as_clients_leave(start_server):
+    server = start_server(max_clients=2)
+
+    async def run():
+        for _ in range(5):                          # politely, then abruptly (TCP reset), 5 times over
+            a, _ = await ws_hello(server, name="a")
+            b = await TcpClient.open(server)
+            await b.send(P.client_message("hello", name="b"))
+            assert (await b.next_json())["type"] == "welcome"
+            await a.close()
+            b.writer.transport.abort()
+            c, welcome = await ws_hello(server, name="c", role="watch")   # a watcher evicts nobody
+            d, welcome2 = await ws_hello(server, name="d", role="watch")
+            assert welcome["type"] == welcome2["type"] == "welcome", (welcome, welcome2)
+            await c.close()
+            await d.close()
+            await _wait_empty(server)
+
+    asyncio.run(run())
+
+
+async def _ws_closed(ws, timeout: float = 5.0) -> None:
+    try:
+        while True:
+            await asyncio.wait_for(ws.recv(), timeout)
+    except ConnectionClosed:
+        return
+
+
+async def _wait_empty(server, bound: int = 500) -> None:
+    for _ in range(bound):
+        if not server.stats().clients:
+            return
+        await asyncio.sleep(0.01)
+    raise AssertionError(f"clients still connected: {server.stats().clients}")

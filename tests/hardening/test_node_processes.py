@@ -1,0 +1,104 @@
+"""How the launcher runs node processes: quiet exits when interrupted while starting, warm spares,
+and the terminal's one-line summaries of tracebacks (their full text stays in the node's log)."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from raspv_bringup.node_output import TracebackSummariser
+from raspv_bringup.supervisor import _die_with_parent
+
+SLOW_IMPORT = """
+import pathlib, time
+pathlib.Path({marker!r}).write_text("importing")
+time.sleep(60)
+
+def main(argv):
+    print("main ran", flush=True)
+"""
+
+FAST_NODE = """
+import os
+
+def main(argv):
+    print("main", argv[1:], "spawned at", os.environ.get("RASPV_SPAWN_TIME"), flush=True)
+"""
+
+
+def _entry(tmp_path: Path, module: str, *args: str, **kw) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    return subprocess.Popen([sys.executable, "-m", "raspv_bringup.node_entry", *args, module], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=_die_with_parent, **kw)
+
+
+def _wait_for(path: Path, proc: subprocess.Popen, bound: float = 60.0) -> None:
+    deadline = time.monotonic() + bound
+    while not path.exists():
+        assert proc.poll() is None, proc.communicate()[0]
+        assert time.monotonic() < deadline, "the module never started importing"
+        time.sleep(0.02)
+
+
+def test_a_node_interrupted_while_importing_exits_quietly(tmp_path):
+    marker = tmp_path / "importing"
+    (tmp_path / "slow_import_node.py").write_text(SLOW_IMPORT.format(marker=str(marker)))
+    proc = _entry(tmp_path, "slow_import_node")
+    _wait_for(marker, proc)
+    proc.send_signal(signal.SIGINT)
+    out = proc.communicate(timeout=30)[0]
+    assert proc.returncode == 130 and "Traceback" not in out and "KeyboardInterrupt" not in out, out
+
+
+def test_a_sigint_before_the_interpreter_is_up_waits_and_exits_quietly(tmp_path):
+    """The launcher starts nodes with SIGINT blocked: sent at once, it is not a 'Fatal Python
+    error' in the interpreter's own start-up but a quiet exit once node_entry can take it."""
+    (tmp_path / "fast_node.py").write_text(FAST_NODE)
+    for _ in range(3):
+        proc = _entry(tmp_path, "fast_node")
+        proc.send_signal(signal.SIGINT)
+        out = proc.communicate(timeout=60)[0]
+        assert proc.returncode == 130 and "Fatal Python error" not in out and "Traceback" not in out, out
+
+
+def test_a_warm_spare_waits_then_runs_the_node_or_leaves_when_not_needed(tmp_path):
+    (tmp_path / "fast_node.py").write_text(FAST_NODE)
+    spare = _entry(tmp_path, "fast_node", "--spare", stdin=subprocess.PIPE)
+    spare.stdin.write("1234.5\n")
+    spare.stdin.close()
+    out = spare.stdout.read()
+    spare.wait(timeout=60)
+    assert spare.returncode == 0 and "main [] spawned at 1234.5" in out, out
+    unused = _entry(tmp_path, "fast_node", "--spare", stdin=subprocess.PIPE)
+    unused.stdin.close()                                       # the launcher no longer needs it
+    out = unused.stdout.read()
+    unused.wait(timeout=60)
+    assert unused.returncode == 0 and "main" not in out, out
+
+
+def test_tracebacks_become_one_line_and_expected_ones_none():
+    lines = ["starting", "Traceback (most recent call last):", '  File "x.py", line 1, in <module>',
+             "    import y", "    ^^^^^^^^", "ValueError: first", "",
+             "During handling of the above exception, another exception occurred:", "",
+             "Traceback (most recent call last):", '  File "x.py", line 3, in <module>', "KeyError: 'k'",
+             "after", "Exception ignored in: <function Future.__del__ at 0x1>", "Traceback (most recent call last):",
+             '  File "t.py", line 56, in __del__', "AttributeError: 'Task' object has no attribute '_exception'",
+             "Traceback (most recent call last):", '  File "n.py", line 9', "KeyboardInterrupt", "end"]
+    s = TracebackSummariser("/logs/spv.log")
+    shown = [x for x in (s.feed(line) for line in lines) if x is not None]
+    assert shown == ["starting", "raised ValueError: first (full traceback in /logs/spv.log)",
+                     "raised KeyError: 'k' (full traceback in /logs/spv.log)", "after",
+                     "raised AttributeError: 'Task' object has no attribute '_exception' (full traceback in /logs/spv.log)",
+                     "raised KeyboardInterrupt (full traceback in /logs/spv.log)", "end"]
+    quiet = TracebackSummariser("/logs/spv.log", quiet=lambda line, ignored: ignored or line == "KeyboardInterrupt")
+    shown = [x for x in (quiet.feed(line) for line in lines) if x is not None]
+    assert "raised KeyError: 'k' (full traceback in /logs/spv.log)" in shown
+    assert not any("AttributeError" in x or "KeyboardInterrupt" in x for x in shown)
+    cut = TracebackSummariser("/logs/a.log")
+    cut.feed("Traceback (most recent call last):")
+    cut.feed('  File "x.py", line 1')
+    assert "ended early" in cut.flush()
