@@ -46,11 +46,19 @@ class FileKind:
 
 
 def _check_bag(value: str) -> None:
-    try:                                   # issue 11 moves the bag code to raspv_bags
-        from raspv_bags.reader import BagReader
-    except ImportError:
-        from raspv_camera.bag_reader import BagReader
+    from raspv_bags.reader import BagReader
+
     BagReader(value).close()
+
+
+def _check_segmentation_model(value: str, params: dict) -> None:
+    """The segmentation node's ``model`` (and ``labels``) loaded as its backend loads them."""
+    from raspv_perception.segmentation_models import load_model
+
+    backend = params.get("backend", "person")
+    if backend == "sim":
+        return                              # ground truth from the world: no model file is read
+    load_model(backend, value, params.get("labels", ""), params.get("threshold", 0.5), 1)
 
 
 def _check_output_dir(value: str) -> None:
@@ -82,6 +90,11 @@ FILE_KINDS: dict[str, FileKind] = {
     "bag": FileKind("bag", _check_bag, "ROS 2 bag: directory, .mcap or .db3 file"),
     "output_dir": FileKind("output_dir", _check_output_dir, "directory the node creates and writes into"),
     "pem": FileKind("pem", _check_pem, "PEM certificate or key"),
+    "layout": FileKind("layout", "raspv_spv.implant_layout:load_layout", "implant electrode layout: name or YAML file"),
+    "segmentation_model": FileKind("segmentation_model", _check_segmentation_model,
+                                   "segmentation model (ONNX or TorchScript) with its YAML", with_params=True),
+    "camera_recording": FileKind("camera_recording", "raspv_camera.drivers:check_recording",
+                                 "RGB-D camera SDK recording", with_params=True),
 }
 
 

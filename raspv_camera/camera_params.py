@@ -7,7 +7,7 @@ PARAMS = [
     Param("device", "", "serial number (RealSense), URI (OpenNI2; 'Dummy' is the library's synthetic device) or "
           "device id (DepthAI); empty: the first found", dynamic=False),
     Param("file", "", "play this recording instead of a device: RealSense .db3/.bag, OpenNI2 .oni, DepthAI "
-          "directory of .mcap files", dynamic=False),
+          "directory of .mcap files", dynamic=False, file_kind="camera_recording"),
     Param("width", 640, "colour (and registered depth) width asked of a live device", minimum=16, maximum=4096,
           dynamic=False, unit="px"),
     Param("height", 480, "colour (and registered depth) height asked of a live device", minimum=16, maximum=4096,

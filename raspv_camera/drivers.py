@@ -67,3 +67,19 @@ def list_all_devices(names: list[str] | None = None) -> list[SdkDevices]:
     names = list(names or DRIVERS)
     with ThreadPoolExecutor(max_workers=len(names)) as pool:
         return list(pool.map(_devices_of, names))
+
+
+def check_recording(path: str, params: dict) -> None:
+    """Launch-time check of the camera node's ``file`` (the graph's ``driver`` parameter, or
+    the SDK the suffix names): raises ValueError with one line when it cannot be played. Opens
+    nothing and loads no SDK."""
+    name = params.get("driver", "auto")
+    if name == "auto":
+        name = driver_for_file(str(__import__("pathlib").Path(path).expanduser()))
+        if name is None:
+            raise ValueError(f"{path}: cannot tell which SDK recorded it (.db3/.bag RealSense, .oni OpenNI2, "
+                             "a directory of .mcap DepthAI); set 'driver'")
+    try:
+        driver_class(name)(CameraSettings(file=path)).check_file()
+    except CameraError as exc:
+        raise ValueError(str(exc)) from None

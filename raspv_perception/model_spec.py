@@ -96,6 +96,8 @@ def load_model_spec(model: Path, spec_path: Path | None = None) -> ModelSpec:
         spec_path = model.with_suffix(".yaml") if model.suffix in MODEL_SUFFIXES else model
         if model.suffix in (".yaml", ".yml"):
             spec_path = model
+    if model.suffix in MODEL_SUFFIXES and not model.is_file():
+        raise ModelError(f"{model}: no such model file")
     if not spec_path.is_file():
         raise ModelError(f"{spec_path}: no model file; a segmentation model needs a YAML beside it giving "
                          "input_size, mean, std, channel_order and labels (see docs/perception.md#segmentation)")

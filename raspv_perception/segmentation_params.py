@@ -4,7 +4,8 @@ from raspv_common.params import Param
 PARAMS = [
     Param("backend", "person", "person (shipped MediaPipe model), onnx, torchscript (a model file of yours) or sim "
           "(the virtual world's ground truth)", choices=("person", "onnx", "torchscript", "sim"), dynamic=False),
-    Param("model", "", "model file for onnx/torchscript (person: '' = the shipped model)", dynamic=False),
+    Param("model", "", "model file for onnx/torchscript (person: '' = the shipped model)", dynamic=False,
+          file_kind="segmentation_model"),
     Param("labels", "", "model file (YAML: input size, normalisation, labels); '' = the model path with .yaml",
           dynamic=False),
     Param("threads", 1, "inference threads", minimum=1, maximum=16, dynamic=False),

@@ -39,6 +39,9 @@ def _corpus(d: Path) -> list[tuple[str, dict, str, str]]:
     (d / "cert.pem").write_text("not a certificate\n")
     (d / "key.pem").write_text("-----BEGIN PRIVATE KEY-----\nMC4CAQAwBQYDK2VwBCIEIA==\n-----END PRIVATE KEY-----\n")
     (d / "a_file").write_text("x")
+    (d / "junk.onnx").write_bytes(BINARY)
+    (d / "junk.yaml").write_text("input_size: [64, 64]\nmean: [0, 0, 0]\nstd: [1, 1, 1]\nlabels: [a, b]\n")
+    (d / "junk.oni").write_bytes(BINARY[:0])
 
     def sim(world):
         return {"launch": {"nodes": [{"kind": "sim"}, {"kind": "spv"}]}, "sim": {"ros__parameters": {"world": world}}}
@@ -51,6 +54,13 @@ def _corpus(d: Path) -> list[tuple[str, dict, str, str]]:
 
     def replay(bag):
         return {"launch": {"nodes": [{"kind": "replay"}]}, "replay": {"ros__parameters": {"bag": bag}}}
+
+    def segmentation(model, backend="onnx"):
+        return {"launch": {"nodes": [{"kind": "segmentation"}]},
+                "segmentation": {"ros__parameters": {"backend": backend, "model": model}}}
+
+    def camera(file, driver="auto"):
+        return {"launch": {"nodes": [{"kind": "camera"}]}, "camera": {"ros__parameters": {"file": file, "driver": driver}}}
 
     p = str
     return [
@@ -78,6 +88,14 @@ def _corpus(d: Path) -> list[tuple[str, dict, str, str]]:
                                              "bridge": {"ros__parameters": {"tls_cert": p(d / "cert.pem"),
                                                                             "tls_key": p(d / "key.pem")}}},
          "cert.pem", "not a PEM file"),
+        ("missing segmentation model", segmentation(p(d / "nowhere.onnx")), "nowhere.onnx", "no such model file"),
+        ("segmentation model that is not ONNX", segmentation(p(d / "junk.onnx")), "junk.onnx", "ONNX"),
+        ("missing camera recording", camera(p(d / "nowhere.bag")), "nowhere.bag", "no such recording"),
+        ("camera recording of no known SDK", camera(p(d / "a_file")), "a_file", "cannot tell which SDK"),
+        ("camera recording of another SDK", camera(p(d / "junk.oni"), "realsense"), "junk.oni", "not a realsense"),
+        ("missing implant layout", {"launch": {"nodes": [{"kind": "spv"}]},
+                                    "spv": {"ros__parameters": {"layout": p(d / "no_layout.yaml")}}},
+         "no_layout.yaml", "no"),
         ("log directory below a file", {"launch": {"nodes": [{"kind": "sim"}]},
                                         "sim": {"ros__parameters": {"log_dir": p(d / "a_file" / "runs")}}},
          "a_file", "not writable"),

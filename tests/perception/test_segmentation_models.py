@@ -85,8 +85,11 @@ def test_unreadable_and_missing_models(write_model, tmp_path):
     bad_pt.with_suffix(".yaml").write_text("input_size: [64, 64]\nlabels: ade20k\n")
     with pytest.raises(ModelError, match="broken.pt: not a TorchScript file"):
         load_model("torchscript", str(bad_pt))
-    with pytest.raises(ModelError, match="no model file; a segmentation model needs a YAML beside it"):
+    with pytest.raises(ModelError, match="absent.onnx: no such model file"):
         load_model("onnx", str(tmp_path / "absent.onnx"))
+    (tmp_path / "no_yaml.onnx").write_bytes(b"")
+    with pytest.raises(ModelError, match="no_yaml.yaml: no model file; a segmentation model needs a YAML beside it"):
+        load_model("onnx", str(tmp_path / "no_yaml.onnx"))
     (tmp_path / "bad.yaml").write_text("input_size: [64, 64\n")
     (tmp_path / "bad.onnx").write_bytes(b"")
     with pytest.raises(ModelError, match=r"bad.yaml: not valid YAML at line"):
