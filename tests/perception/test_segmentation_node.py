@@ -3,10 +3,14 @@ node (and changed at run time), the person network on the sim's colour image wit
 a user's ONNX model, and one-line start-up errors."""
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from raspv_msgs.msg import ClassNames, PhospheneFrame
 from sensor_msgs.msg import Image
 
@@ -72,12 +76,20 @@ def test_a_users_onnx_model_runs_in_the_node(graph, probe, tmp_path, write_user_
     assert msg.encoding == "mono8" and set(np.unique(np.frombuffer(bytes(msg.data), np.uint8))) <= {0, 1, 2}
 
 
-def test_bad_models_stop_the_node_with_one_line(graph, tmp_path):
+def test_bad_models_are_refused_with_one_line(tmp_path):
+    """The launcher checks the model file before any node starts (file kind
+    ``segmentation_model``), so a bad model is one line and exit 2."""
     yaml_path = tmp_path / "model.yaml"
     yaml_path.write_text("input_size: [64, 64]\nlabels: cityscapes\n")
     (tmp_path / "model.onnx").write_bytes(b"junk")
-    g = graph({"launch": {"nodes": [{"kind": "segmentation"}]},
-               "segmentation": {"ros__parameters": {"backend": "onnx", "model": str(tmp_path / "model.onnx")}}})
-    g.wait_for_output(r"configuration error: .*model.yaml: labels: unknown label set 'cityscapes'; built in: ade20k")
-    g.proc.wait(timeout=30)
-    assert "Traceback" not in g.output
+    graph_file = tmp_path / "graph.yaml"
+    graph_file.write_text(yaml.safe_dump({"launch": {"nodes": [{"kind": "segmentation"}]},
+                                          "segmentation": {"ros__parameters": {"backend": "onnx",
+                                                                               "model": str(tmp_path / "model.onnx")}}}))
+    res = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "launch", str(graph_file)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stdout + res.stderr
+    assert re.search(r"segmentation\.ros__parameters\.model: .*model\.yaml: labels: unknown label set 'cityscapes'; "
+                     r"built in: ade20k", lines[0]), lines
