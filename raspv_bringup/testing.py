@@ -27,6 +27,8 @@ import yaml
 
 from raspv_bringup.middleware import middleware_env
 
+PARAM_RETRY_S = 5.0       # a parameter request without an answer is sent again after this [s]
+
 _domain_lock = None
 
 
@@ -240,16 +242,21 @@ class Probe:
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"parameter services of {target} not available")
                 time.sleep(0.05)
-            call(client, lambda r: (result.append(r), done.set()))
-            if not done.wait(timeout):
-                raise TimeoutError(f"{target} did not answer a parameter request within {timeout:.0f} s")
-            return result[0]
+            # A fresh client's request can be served before the node's response writer matched
+            # our reader (the answer is then lost): ask again every few seconds until the deadline.
+            # Parameter requests are idempotent, so a second answer changes nothing.
+            while True:
+                call(client, lambda r: (result.append(r), done.set()))
+                if done.wait(min(PARAM_RETRY_S, max(0.0, deadline - time.monotonic()))):
+                    return result[0]
+                if time.monotonic() >= deadline:
+                    raise TimeoutError(f"{target} did not answer a parameter request within {timeout:.0f} s")
         finally:
             client.destroy()
 
-    def set_params(self, target: str, values: dict[str, Any], timeout: float = 15.0) -> list[tuple[str, bool, str]]:
+    def set_params(self, target: str, values: dict[str, Any], timeout: float = 30.0) -> list[tuple[str, bool, str]]:
         """Set parameters of node ``target``; returns [(name, successful, reason)]."""
         return self._param_call(target, lambda c, done: c.set_async(values, done), timeout)
 
-    def get_params(self, target: str, names: list[str], timeout: float = 15.0) -> dict[str, Any]:
+    def get_params(self, target: str, names: list[str], timeout: float = 30.0) -> dict[str, Any]:
         return self._param_call(target, lambda c, done: c.get_async(names, done), timeout)

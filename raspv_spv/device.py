@@ -23,7 +23,7 @@ from raspv_common.text_files import read_yaml_file
 
 from raspv_spv.implant_layout import EYES, LayoutError, load_layout
 from raspv_spv.retinotopy import CORTICAL_MAPS
-from raspv_spv.sprite_models import SPRITE_MODELS
+from raspv_spv.sprite_model_names import SPRITE_MODELS
 
 DEVICES_DIR = Path(__file__).resolve().parent.parent / "config" / "devices"
 GRIDS = ("rectangular", "hexagonal")

@@ -58,12 +58,11 @@ from raspv_spv.axon_map import AxonBundles, AxonMapParams, axon_sprites, blend_m
 from raspv_spv.biphasic_axon_map import GranleyEffects, biphasic_axon_sprites, level_amplitudes_xth
 from raspv_spv.phosphene_map import PhospheneMap
 from raspv_spv.retinotopy import CORTICAL_MAPS, image_to_visual_field, watson_um_per_deg
+from raspv_spv.sprite_model_names import LEVELLED_MODELS, SPRITE_MODELS
 from raspv_spv.sprites import GaussianSprite
 from raspv_spv.tissue_sprites import (cortical_scoreboard_sprites, dynaphos_sigma_deg, dynaphos_sprites,
                                       retinal_scoreboard_sprites)
 
-SPRITE_MODELS = ("gaussian", "scoreboard", "axon_map", "biphasic_axon_map", "dynaphos")
-LEVELLED_MODELS = ("biphasic_axon_map", "dynaphos")
 MIN_WEIGHT = 1e-3
 MAX_SCALE = 8
 SIGMA_COARSE_PX = 4.0

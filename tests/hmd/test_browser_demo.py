@@ -67,7 +67,13 @@ def test_walk_and_look_around_from_the_browser(graph, probe):
             page.mouse.down()
             page.mouse.move(x - 240, y, steps=8)                         # 60° to the left
             page.mouse.up()
-            poses.wait(1, timeout=30, predicate=lambda m: abs(wrap(head_yaw(m) - yaw0) - math.radians(60)) < 0.2)
+            try:
+                poses.wait(1, timeout=30, predicate=lambda m: abs(wrap(head_yaw(m) - yaw0) - math.radians(60)) < 0.2)
+            except TimeoutError:
+                state = page.evaluate("() => ({role: window.raspvClient.role, head: window.raspvClient.head, "
+                                      "sent: window.raspvClient.headsSent})")
+                raise AssertionError(f"head yaw {math.degrees(wrap(head_yaw(poses.messages[-1]) - yaw0)):.1f} deg "
+                                     f"from the drag's start; client {state}; bridge: {g.output[-1500:]}") from None
             page.wait_for_timeout(1000)                                   # let the phosphenes follow
             after = view(page)
             assert np.abs(after - before).mean() > 2.0                    # the view changed

@@ -8,6 +8,16 @@ from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.rgbd_files import read_color, read_depth_scaled
 
 
+# The spv node's start-up configurations in the integration tests (tests/spv/test_spv_node*.py):
+# their temporal tables are built here, once, so a node started on a loaded machine does not
+# spend its tests' time budget building them (building and caching is tested in test_temporal_lut).
+NODE_START_CONFIGS = [
+    {"device": "argus_iii", "rate": 25.0, "width": 300, "mode": "depth"},
+    {"rate": 20.0, "width": 200},
+    {"device": "argus_ii", "rate": 25.0, "width": 400},
+]
+
+
 @pytest.fixture(autouse=True, scope="session")
 def lut_cache(tmp_path_factory):
     """Temporal tables go to a per-session directory (built once per session, not in ~)."""
@@ -16,6 +26,19 @@ def lut_cache(tmp_path_factory):
     mp.setenv("RASPV_CACHE_DIR", str(path))
     yield path
     mp.undo()
+
+
+@pytest.fixture(scope="module")
+def warm_node_tables(lut_cache):
+    """Build the temporal tables of :data:`NODE_START_CONFIGS` into the session's cache."""
+    from raspv_spv.config import config_from_node_params
+    from raspv_spv.simulator import PhospheneSimulator
+    from raspv_spv.spv_params import PARAMS
+
+    defaults = {p.name: p.default for p in PARAMS}
+    for overrides in NODE_START_CONFIGS:
+        PhospheneSimulator(config_from_node_params({**defaults, **overrides}))
+    return lut_cache
 
 
 @pytest.fixture(scope="session")

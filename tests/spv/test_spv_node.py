@@ -13,7 +13,7 @@ from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.qos import LATCHED_QOS
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.usefixtures("warm_node_tables")]
 
 SOURCE = {"kind": "synthetic", "name": "cam"}
 SOURCE_PARAMS = {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}}
