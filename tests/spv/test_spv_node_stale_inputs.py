@@ -69,6 +69,9 @@ def test_stale_scene_falls_back_to_depth_stale_camera_shows_the_no_data_ring_and
     try:
         normal = frames.wait(1, timeout=60, predicate=lambda f: f.mode == "wall_obstacles" and max(f.levels) > 0)[0]
         assert set(normal.levels) == {7}                                   # every phosphene on an obstacle
+        # steady: the node has learnt the inputs' periods (until then it allows 0.5 s)
+        frames.wait(1, timeout=30, predicate=lambda f: f.mode == "wall_obstacles"
+                    and stamp_to_seconds(f.source_stamp) > stamp_to_seconds(normal.source_stamp) + 1.0)
 
         # the scene node stops: depth frames (new ones, not the last scene frame) in the fallback mode
         src.labels_on = False
