@@ -50,6 +50,7 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
+from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_nav.nav_msg import guidance_from_msg
@@ -137,6 +138,7 @@ class SpvNode(RaspvNode):
         self._plan_lock = threading.Lock()
         self._shown: tuple | None = None        # (sim, stale set, plan, simulator shown, no-data pattern)
         self._plan_logged = 0.0
+        self._seen: set[str] = set()
         # display statistics
         self._last_tick: float | None = None
         self._ticks = 0
@@ -315,7 +317,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("color", f"ignoring colour image on {topics.COLOR}: {exc}")
             return
         self.stamps["color"] = stamp_to_seconds(msg.header.stamp)
-        self.staleness.arrived("color", time.monotonic())
+        self._arrived("color")
         self._frame_arrived("color")
 
     def on_depth(self, msg: Image) -> None:
@@ -325,7 +327,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("depth", f"ignoring depth image on {topics.DEPTH}: {exc}")
             return
         self.stamps["depth"] = stamp_to_seconds(msg.header.stamp)
-        self.staleness.arrived("depth", time.monotonic())
+        self._arrived("depth")
         self._frame_arrived("depth")
 
     def on_pose(self, msg: PoseStamped) -> None:
@@ -361,12 +363,12 @@ class SpvNode(RaspvNode):
             return
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
-        self.staleness.arrived("nav_path", time.monotonic())
+        self._arrived("nav_path")
 
     def on_nav_guidance(self, msg: NavGuidance) -> None:
         """The navigation assistant's guidance (world frame) for the guidance overlay."""
         self.extras["nav_guidance"] = guidance_from_msg(msg)
-        self.staleness.arrived("nav_guidance", time.monotonic())
+        self._arrived("nav_guidance")
 
     def on_stairs(self, msg: StairDetection) -> None:
         """The newest staircase detection (camera frame of its depth image) for the stairs overlay;
@@ -374,7 +376,7 @@ class SpvNode(RaspvNode):
         stair = staircase_from_msg(msg)
         self.extras["stairs"] = [] if stair is None else [stair]
         self.stamps["stairs"] = stamp_to_seconds(msg.header.stamp)
-        self.staleness.arrived("stairs", time.monotonic())
+        self._arrived("stairs")
 
     def on_segmentation(self, msg: Image) -> None:
         """Keep the last label images with their stamps (the highlight overlay takes the one of
@@ -385,7 +387,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_LABELS}: {exc}")
             return
         stamp = stamp_to_seconds(msg.header.stamp)
-        self.staleness.arrived("segmentation", time.monotonic())
+        self._arrived("segmentation")
         self.extras["segmentation"] = (tuple(self.extras.get("segmentation", ())) + ((stamp, labels),))[-8:]
         newest = self.view.newest_frame()
         if newest is not None and abs(newest.stamp - stamp) < 1e-6:
@@ -402,7 +404,7 @@ class SpvNode(RaspvNode):
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)
         self.stamps["scene"] = stamp_to_seconds(msg.header.stamp)
-        self.staleness.arrived("scene", time.monotonic())
+        self._arrived("scene")
         self._frame_arrived("scene")
 
     def on_scene_labels(self, msg: Image) -> None:
@@ -415,7 +417,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("labels", f"ignoring {topics.SCENE_LABELS}: {exc}")
             return
         self.stamps["scene_labels"] = stamp_to_seconds(msg.header.stamp)
-        self.staleness.arrived("scene_labels", time.monotonic())
+        self._arrived("scene_labels")
         self._frame_arrived("scene_labels")
 
     def _frame_arrived(self, which: str) -> None:
@@ -494,6 +496,13 @@ class SpvNode(RaspvNode):
         self.tick(frames, stamp)
 
     # -- stale inputs -------------------------------------------------------------------------
+    def _arrived(self, name: str) -> None:
+        """A message of watched input ``name`` arrived (and, with RASPV_STARTUP_REPORT, when the first did)."""
+        self.staleness.arrived(name, time.monotonic())
+        if name not in self._seen:
+            self._seen.add(name)
+            startup_mark(f"first {name}")
+
     def _shown_for(self, sim: PhospheneSimulator, now: float):
         """(plan, simulator to show it with, no-data pattern) for ``sim`` at monotonic ``now``
         (:mod:`raspv_spv.staleness`); cached while neither the simulator nor the stale inputs

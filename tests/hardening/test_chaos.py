@@ -191,3 +191,6 @@ def test_the_headset_image_never_freezes_while_scene_and_spv_are_killed(graph, p
         probe.unsubscribe(frames)
         probe.unsubscribe(images)
     assert g.stop() == 0 and "Traceback" not in g.output
+    # the DDS segments the killed processes left in /dev/shm are gone (raspv_bringup/shm_cleanup.py)
+    assert re.search(r"removed [1-9]\d* shared-memory segment", g.output), g.output[-2000:]
+    print(re.findall(r"removed \d+ shared-memory segment.*", g.output))
