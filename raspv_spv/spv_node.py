@@ -22,7 +22,9 @@ time — is built in the background (:mod:`raspv_spv.background_build`; what is 
 caches by a lower-priority subprocess, :mod:`raspv_spv.prebuild`) while the old one keeps
 displaying; it is swapped in between two display ticks, with levels already computed from the
 latest frame, so the display never stalls. Bad input images are skipped with one rate-limited
-warning.
+warning. Inputs that stop are noticed within 300 ms (:mod:`raspv_spv.staleness`): scene modes
+fall back to ``depth``, overlays whose input stopped are dropped, a stopped camera shows the
+blinking no-data ring (:mod:`raspv_spv.no_data`); ``/spv/status`` says what is shown.
 """
 from __future__ import annotations
 
@@ -137,7 +139,8 @@ class SpvNode(RaspvNode):
         self.staleness = staleness.StalenessMonitor()
         self._plan_lock = threading.Lock()
         self._shown: tuple | None = None        # (sim, stale set, plan, simulator shown, no-data pattern)
-        self._plan_logged = 0.0
+        self._plan_logged = -1e9                # monotonic time of the last stale-input warning
+        self._stale_logged = False
         self._seen: set[str] = set()
         # display statistics
         self._last_tick: float | None = None
@@ -536,12 +539,12 @@ class SpvNode(RaspvNode):
         except RCLError:
             if self.context.ok():
                 raise
-        if now - self._plan_logged < 2.0 or (plan.normal and not self._plan_logged):
-            return
-        self._plan_logged = now
         if plan.normal:
-            self.get_logger().info(f"inputs back: showing mode {configured_mode} again")
-        else:
+            if self._stale_logged:
+                self._stale_logged = False
+                self.get_logger().info(f"inputs back: showing mode {configured_mode} again")
+        elif now - self._plan_logged >= 2.0:
+            self._plan_logged, self._stale_logged = now, True
             what = ", ".join(self.staleness.describe(n, now) for n in sorted(plan.stale))
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
 
