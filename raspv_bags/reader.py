@@ -259,6 +259,32 @@ class BagReader:
                     break
                 yield BagMessage(topic, normalise_type(msgtype), ts, data)
 
+    def topic_span_ns(self, topic: str) -> tuple[int, int] | None:
+        """(first, last) receive time [ns] of ``topic``'s messages, or None when it has none.
+        Reads its first message and then windows back from the bag's end (1 s, 4 s, 16 s, …),
+        so only the storage chunks near both ends are decoded, not the whole bag."""
+        first = next((m.timestamp_ns for m in self.messages([topic])), None)
+        if first is None or self.end_ns is None:
+            return None
+        window = 1_000_000_000
+        while True:
+            start = max(first, self.end_ns - window)
+            last = None
+            for m in self.messages([topic], start_ns=start):
+                last = m.timestamp_ns if last is None else max(last, m.timestamp_ns)
+            if last is not None or start == first:
+                return first, first if last is None else last
+            window *= 4
+
+    def topic_rate_hz(self, topic: str) -> float | None:
+        """Messages per second of ``topic`` over its own span (first to last message), not the
+        bag's: a topic that started late or ended early is not reported slower than it ran."""
+        info = self.topics.get(topic)
+        span = self.topic_span_ns(topic) if info is not None and info.count > 1 else None
+        if span is None or span[1] <= span[0]:
+            return None
+        return (info.count - 1) / ((span[1] - span[0]) * 1e-9)
+
     def decode(self, msg: BagMessage) -> Any:
         """Deserialise a message into a rosbags message object; :class:`BagError` if its type is
         unknown or its bytes do not parse."""

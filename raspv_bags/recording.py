@@ -1,7 +1,9 @@
 """Recording a live graph into a bag: topic selection, writing, counts (no ROS imports).
 
-The ROS side (`raspv bag record`, :mod:`raspv_bringup.bag_cli`) discovers topics, subscribes
-with raw (serialised) subscriptions and hands every message here; :class:`Recording` writes
+The ROS side (`raspv bag record`, :mod:`raspv_bringup.bag_cli`) subscribes at start to the
+graph's known topics (:mod:`raspv_bags.known_topics`: declared with :meth:`Recording.expect_topic`,
+added to the bag with their first message, so topics nobody publishes leave no trace), discovers
+the others, and hands every message (raw, serialised) here; :class:`Recording` writes
 the bytes unchanged through :class:`~raspv_bags.writer.BagWriter` (which flushes every
 ``flush_interval_s``, so a killed recorder loses at most that much) and keeps the per-topic
 counts shown on the status line.
@@ -50,16 +52,31 @@ class Recording:
         self.started = time.monotonic()
         self.first_ns: int | None = None
         self.last_ns: int | None = None
+        self._expected: dict[str, tuple[str, list[QosSpec]]] = {}
+        self.on_first_message = None          # callback(topic, msgtype) when a topic enters the bag
 
     @property
     def topics(self) -> dict[str, str]:
         return dict(self.writer.types)
 
     def add_topic(self, topic: str, msgtype: str, offered: Sequence[QosSpec]) -> None:
+        self._expected.pop(topic, None)
         self.writer.add_topic(topic, msgtype, offered)
 
+    def expect_topic(self, topic: str, msgtype: str, offered: Sequence[QosSpec]) -> None:
+        """Declare a topic subscribed ahead of discovery: added to the bag with its first message
+        (``offered`` may be updated by calling this again before then)."""
+        if topic not in self.writer.types:
+            self._expected[topic] = (msgtype, list(offered))
+
     def on_message(self, topic: str, data: bytes, receive_ns: int) -> None:
-        """Write one serialised message with its receive time (ns since the epoch)."""
+        """Write one serialised message with its receive time (ns since the epoch). Raises
+        :class:`~raspv_bags.writer.BagWriteError` when an expected topic cannot be added."""
+        expected = self._expected.pop(topic, None)
+        if expected is not None:
+            self.writer.add_topic(topic, *expected)
+            if self.on_first_message is not None:
+                self.on_first_message(topic, expected[0])
         self.writer.write(topic, receive_ns, data)
         if self.first_ns is None:
             self.first_ns = receive_ns

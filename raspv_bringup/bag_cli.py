@@ -135,6 +135,7 @@ def _record(args: argparse.Namespace) -> int:
     node = rclpy.create_node(f"raspv_bag_record_{os.getpid()}")
     tty = sys.stderr.isatty()
     recorder = _GraphRecorder(node, recording, selection, tty)
+    recorder.subscribe_known()          # before discovery: the first message of every known topic
     print(f"recording to {out} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
     start = time.monotonic()
     last_status = last_discovery = last_flush = 0.0
@@ -170,13 +171,88 @@ def _record(args: argparse.Namespace) -> int:
 
 
 class _GraphRecorder:
-    """Subscribes (raw) to every selected topic as it appears."""
+    """Subscribes (raw) to the selected known topics at once, and to every other selected topic
+    as it appears."""
 
     def __init__(self, node, recording, selection, tty: bool) -> None:
         self.node, self.recording, self.selection = node, recording, selection
         self.line_start = "\r" + CLEAR_EOL if tty else ""  # overwrite the status line on a terminal
         self.subscriptions: dict[str, object] = {}
         self.skipped: set[str] = set()
+        self.ahead: dict[str, tuple[object, str]] = {}   # subscribed before discovery: (class, type), until publishers show
+        recording.on_first_message = self._first_message
+
+    def subscribe_known(self) -> None:
+        """Subscribe to the graph's known topics (:mod:`raspv_bags.known_topics`) with the QoS
+        their nodes publish with, before any publisher is discovered."""
+        from raspv_bags.known_topics import known_topics
+        from raspv_bags.message_types import ensure_type
+        from raspv_bags.writer import QosSpec
+        from raspv_common.ros_introspection import message_class
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        for name, msgtype, latched in known_topics(self.selection.wants):
+            try:
+                cls = message_class(msgtype)
+            except ValueError:
+                continue                                 # not installed here: discovery will say so
+            if not ensure_type(msgtype):
+                continue
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+            self.recording.expect_topic(name, msgtype, [QosSpec(reliable=True, transient_local=latched, depth=10)])
+            self.subscriptions[name] = self._subscribe(cls, name, qos)
+            self.ahead[name] = (cls, msgtype)
+
+    def _subscribe(self, cls, name: str, qos):
+        from raspv_bags.writer import BagWriteError
+        write = self.recording.on_message
+
+        def on_message(data, topic=name):
+            try:
+                write(topic, data, time.time_ns())
+            except BagWriteError as exc:
+                self._stop_recording(topic, str(exc))
+        return self.node.create_subscription(cls, name, on_message, qos, raw=True)
+
+    def _stop_recording(self, name: str, why: str) -> None:
+        sub = self.subscriptions.pop(name, None)
+        if sub is not None:
+            self.node.destroy_subscription(sub)
+        self._skip(name, why)
+
+    def _first_message(self, name: str, msgtype: str) -> None:
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+        sub = self.subscriptions.get(name)
+        qos = sub.qos_profile if sub is not None else None
+        kind = "reliable" if qos is None or qos.reliability == ReliabilityPolicy.RELIABLE else "best-effort"
+        if qos is not None and qos.durability == DurabilityPolicy.TRANSIENT_LOCAL:
+            kind += ", transient-local"
+        print(f"{self.line_start}+ {name} [{msgtype}] ({kind})", file=sys.stderr, flush=True)
+
+    def _check_ahead(self, name: str, infos) -> None:
+        """A topic subscribed before discovery now has publishers: keep the subscription if it
+        matches them all (our nodes), else subscribe again with the QoS they offer."""
+        from raspv_bags.writer import QosSpec
+        from raspv_common.ros_introspection import qos_matching_publishers
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+        cls, msgtype = self.ahead.pop(name)
+        offered = [QosSpec(reliable=i.qos_profile.reliability == ReliabilityPolicy.RELIABLE,
+                           transient_local=i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL,
+                           depth=i.qos_profile.depth if i.qos_profile.depth > 0 else 10) for i in infos]
+        self.recording.expect_topic(name, msgtype, offered)      # the bag keeps what was really offered
+        qos = qos_matching_publishers(self.node, name)
+        sub = self.subscriptions[name]
+        if qos.reliability == sub.qos_profile.reliability and qos.durability == sub.qos_profile.durability:
+            return
+        qos.depth = 100
+        self.node.destroy_subscription(sub)
+        self.subscriptions[name] = self._subscribe(cls, name, qos)
+        kind = ("reliable" if qos.reliability == ReliabilityPolicy.RELIABLE else "best-effort") + \
+               (", transient-local" if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL else "")
+        print(f"{self.line_start}{name}: publishers offer {kind}; subscribed again to match", file=sys.stderr,
+              flush=True)
 
     def discover(self) -> None:
         from raspv_bags.message_types import ensure_type
@@ -185,7 +261,14 @@ class _GraphRecorder:
         from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
         for name, types in self.node.get_topic_names_and_types():
-            if name in self.subscriptions or name in self.skipped or not self.selection.wants(name):
+            if name in self.ahead:
+                if types == [self.ahead[name][1]]:
+                    infos = self.node.get_publishers_info_by_topic(name)
+                    if infos:
+                        self._check_ahead(name, infos)
+                    continue
+                # published with another type than the known one: subscribed anew below
+            elif name in self.subscriptions or name in self.skipped or not self.selection.wants(name):
                 continue
             infos = self.node.get_publishers_info_by_topic(name)
             if not infos:
@@ -212,9 +295,10 @@ class _GraphRecorder:
             except BagWriteError as exc:
                 self._skip(name, str(exc))
                 continue
-            write = self.recording.on_message
-            self.subscriptions[name] = self.node.create_subscription(
-                cls, name, lambda data, topic=name: write(topic, data, time.time_ns()), qos, raw=True)
+            if name in self.subscriptions:          # a known topic published with another type
+                self.node.destroy_subscription(self.subscriptions.pop(name))
+                self.ahead.pop(name, None)
+            self.subscriptions[name] = self._subscribe(cls, name, qos)
             kind = ("reliable" if qos.reliability == ReliabilityPolicy.RELIABLE else "best-effort") + \
                    (", transient-local" if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL else "")
             print(f"{self.line_start}+ {name} [{msgtype}] ({kind})", file=sys.stderr, flush=True)
@@ -287,7 +371,8 @@ def format_info(reader) -> str:
     lines.append(f"messages:  {reader.message_count}")
     lines.append("topics:")
     for t in sorted(reader.topics.values(), key=lambda t: t.name):
-        rate = f"{(t.count - 1) / reader.duration_s:6.1f} Hz" if reader.duration_s > 0 and t.count > 1 else "       -"
+        hz = reader.topic_rate_hz(t.name)         # over the topic's own first-to-last span
+        rate = f"{hz:6.1f} Hz" if hz is not None else "       -"
         qos = ""
         if t.qos:
             q = t.qos[0]

@@ -273,7 +273,16 @@ class Supervisor:
         else:
             self._spawn(node)
             self.say(f"raspv launch: node '{node.entry.name}' ended ({why}); restarting it (pid {node.proc.pid})")
+        if node.exit_code is not None and node.exit_code < 0:
+            self._clean_shared_memory()         # a killed process leaves its DDS segment behind
         return True
+
+    def _clean_shared_memory(self) -> None:
+        """Remove shared-memory segments whose owner died (:mod:`raspv_bringup.shm_cleanup`)."""
+        from raspv_bringup.shm_cleanup import remove_stale_segments
+        cleanup = remove_stale_segments()
+        if cleanup.removed:
+            self.say(f"raspv launch: {cleanup.describe()}")
 
     def _signal_all(self, sig: int) -> None:
         for node in self.nodes:
@@ -328,6 +337,8 @@ class Supervisor:
                 node.pidfd = None
             if node.log is not None:
                 node.log.close()
+        if any(n.restart_count or (n.exit_code is not None and n.exit_code < 0) for n in self.nodes):
+            self._clean_shared_memory()
         self.say(self.resource_table())
         self._tmp.cleanup()
 

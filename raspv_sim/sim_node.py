@@ -235,6 +235,10 @@ class SimNode(RaspvNode):
         self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
         self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))
         self.pub_info.publish(self.camera_info)
+        if not getattr(self, "_first_frame_logged", False):   # the start of a recording is checked against it
+            self._first_frame_logged = True
+            h = header.stamp
+            self.get_logger().info(f"first camera frame published, stamp {h.sec + 1e-9 * h.nanosec:.6f}")
         if self.params["publish_labels"]:
             self.pub_labels.publish(array_to_image(frame.labels, "mono8", header))
         world_header = self.header("world")

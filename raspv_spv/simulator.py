@@ -28,6 +28,8 @@ Offline use::
 """
 from __future__ import annotations
 
+import copy
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -112,6 +114,16 @@ class PhospheneSimulator:
         so a run-time change of, say, the mode does not restart the temporal model."""
         if self.temporal is not None and previous.temporal is not None and previous.count == self.count:
             self.temporal.adopt(previous.temporal)
+
+    def variant(self, mode: str, overlays: tuple[str, ...]) -> "PhospheneSimulator":
+        """This simulator with another mode and overlays, sharing its map, sprites, samplings
+        and temporal state (cheap: only the mode and overlays are built). The spv node shows a
+        fallback with it when inputs are stale (:mod:`raspv_spv.staleness`)."""
+        other = copy.copy(self)
+        other.config = dataclasses.replace(self.config, mode=mode, overlays=tuple(overlays))
+        other.mode = mode_class(mode)(self.config.mode_settings)
+        other.overlays = [o for name, o in zip(self.config.overlays, self.overlays) if name in overlays]
+        return other
 
     def sampling(self, camera: CameraIntrinsics) -> Sampling:
         """The phosphenes' camera pixels for ``camera`` (cached for the last few cameras)."""

@@ -22,11 +22,14 @@ time — is built in the background (:mod:`raspv_spv.background_build`; what is 
 caches by a lower-priority subprocess, :mod:`raspv_spv.prebuild`) while the old one keeps
 displaying; it is swapped in between two display ticks, with levels already computed from the
 latest frame, so the display never stalls. Bad input images are skipped with one rate-limited
-warning.
+warning. Inputs that stop are noticed within 300 ms (:mod:`raspv_spv.staleness`): scene modes
+fall back to ``depth``, overlays whose input stopped are dropped, a stopped camera shows the
+blinking no-data ring (:mod:`raspv_spv.no_data`); ``/spv/status`` says what is shown.
 """
 from __future__ import annotations
 
 import array
+import json
 import os
 import statistics
 import sys
@@ -42,23 +45,26 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, image_to_array,
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
+from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
-from raspv_spv import display_budget
+from raspv_spv import display_budget, staleness
 from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
+from raspv_spv.no_data import NoDataPattern
 from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
 from raspv_spv.prebuild import missing_from_cache, prebuild_in_subprocess
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -129,6 +135,13 @@ class SpvNode(RaspvNode):
         # frames with their levels, poses, and what the display shows (reprojection, device latency)
         self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"])
         self._pending: FrameInputs | None = None        # a frame waiting for its camera pose
+        # stale inputs (raspv_spv.staleness): what the display shows instead
+        self.staleness = staleness.StalenessMonitor()
+        self._plan_lock = threading.Lock()
+        self._shown: tuple | None = None        # (sim, stale set, plan, simulator shown, no-data pattern)
+        self._plan_logged = -1e9                # monotonic time of the last stale-input warning
+        self._stale_logged = False
+        self._seen: set[str] = set()
         # display statistics
         self._last_tick: float | None = None
         self._ticks = 0
@@ -138,6 +151,7 @@ class SpvNode(RaspvNode):
         self.pub_image = self.create_publisher(Image, topics.SPV_IMAGE, SENSOR_QOS)
         self.pub_frame = self.create_publisher(PhospheneFrame, topics.SPV_FRAME, SENSOR_QOS)
         self.pub_map = self.create_publisher(PhospheneMap, topics.SPV_MAP, LATCHED_QOS)
+        self.pub_status = self.create_publisher(String, topics.SPV_STATUS, LATCHED_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self._subs: dict[str, object] = {}
         self._update_subscriptions(self.sim.needs)
@@ -270,7 +284,11 @@ class SpvNode(RaspvNode):
         """Subscribe to the inputs the mode and overlays read (needed or optional) and those the
         reprojection reads, and only those."""
         reprojection = self.params["reprojection"] if reprojection is None else reprojection
-        needs = frozenset(needs) | self.sim.optional_inputs | (VIEW_INPUTS if reprojection else frozenset())
+        watched = staleness.watched_inputs(frozenset(self.sim.mode.needs),
+                                           [o.needs | o.optional_inputs for o in self.sim.overlays])
+        self.staleness.watch(watched, staleness.expected_with(frozenset(self.sim.mode.needs)))
+        needs = (frozenset(needs) | self.sim.optional_inputs | watched
+                 | (VIEW_INPUTS if reprojection else frozenset()))
         wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
                   "camera_pose": (PoseStamped, topics.CAMERA_POSE, self.on_pose),
                   "head": (QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head),
@@ -302,6 +320,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("color", f"ignoring colour image on {topics.COLOR}: {exc}")
             return
         self.stamps["color"] = stamp_to_seconds(msg.header.stamp)
+        self._arrived("color")
         self._frame_arrived("color")
 
     def on_depth(self, msg: Image) -> None:
@@ -311,6 +330,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("depth", f"ignoring depth image on {topics.DEPTH}: {exc}")
             return
         self.stamps["depth"] = stamp_to_seconds(msg.header.stamp)
+        self._arrived("depth")
         self._frame_arrived("depth")
 
     def on_pose(self, msg: PoseStamped) -> None:
@@ -346,10 +366,12 @@ class SpvNode(RaspvNode):
             return
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
+        self._arrived("nav_path")
 
     def on_nav_guidance(self, msg: NavGuidance) -> None:
         """The navigation assistant's guidance (world frame) for the guidance overlay."""
         self.extras["nav_guidance"] = guidance_from_msg(msg)
+        self._arrived("nav_guidance")
 
     def on_stairs(self, msg: StairDetection) -> None:
         """The newest staircase detection (camera frame of its depth image) for the stairs overlay;
@@ -357,6 +379,7 @@ class SpvNode(RaspvNode):
         stair = staircase_from_msg(msg)
         self.extras["stairs"] = [] if stair is None else [stair]
         self.stamps["stairs"] = stamp_to_seconds(msg.header.stamp)
+        self._arrived("stairs")
 
     def on_segmentation(self, msg: Image) -> None:
         """Keep the last label images with their stamps (the highlight overlay takes the one of
@@ -367,6 +390,7 @@ class SpvNode(RaspvNode):
             self.warn_throttled("segmentation", f"ignoring {topics.SEGMENTATION_LABELS}: {exc}")
             return
         stamp = stamp_to_seconds(msg.header.stamp)
+        self._arrived("segmentation")
         self.extras["segmentation"] = (tuple(self.extras.get("segmentation", ())) + ((stamp, labels),))[-8:]
         newest = self.view.newest_frame()
         if newest is not None and abs(newest.stamp - stamp) < 1e-6:
@@ -383,6 +407,7 @@ class SpvNode(RaspvNode):
     def on_scene(self, msg: SceneStructureMsg) -> None:
         self.scene = structure_from_msg(msg)
         self.stamps["scene"] = stamp_to_seconds(msg.header.stamp)
+        self._arrived("scene")
         self._frame_arrived("scene")
 
     def on_scene_labels(self, msg: Image) -> None:
@@ -395,13 +420,17 @@ class SpvNode(RaspvNode):
             self.warn_throttled("labels", f"ignoring {topics.SCENE_LABELS}: {exc}")
             return
         self.stamps["scene_labels"] = stamp_to_seconds(msg.header.stamp)
+        self._arrived("scene_labels")
         self._frame_arrived("scene_labels")
 
     def _frame_arrived(self, which: str) -> None:
         """Recompute the levels when the mode's main input (colour, else depth) arrives; for
         scene modes, when the scene structure and labels of one depth frame are both in."""
         with self._sim_lock:
-            sim, map_id = self.sim, self.map_id
+            sim = self.sim
+        plan, sim, _ = self._shown_for(sim, time.monotonic())   # a fallback while inputs are stale
+        if plan.no_data:
+            return
         scene_inputs = [n for n in ("scene", "scene_labels") if n in sim.needs]
         if scene_inputs:
             # scene modes run when the scene node's outputs of one depth frame are all in
@@ -439,6 +468,9 @@ class SpvNode(RaspvNode):
         self._pending = None
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
+        plan, shown, _ = self._shown_for(sim, time.monotonic())
+        if shown is not None:
+            sim = shown
         inputs.camera_pose = self.view.tracker.camera_pose_at(inputs.stamp)
         if inputs.camera_pose is None:
             inputs.camera_pose = self.pose          # a source whose poses are not stamped like its images
@@ -466,6 +498,56 @@ class SpvNode(RaspvNode):
         frames = 1 if last is None else max(1, int(round((stamp - last) * self.params["rate"])))
         self.tick(frames, stamp)
 
+    # -- stale inputs -------------------------------------------------------------------------
+    def _arrived(self, name: str) -> None:
+        """A message of watched input ``name`` arrived (and, with RASPV_STARTUP_REPORT, when the first did)."""
+        self.staleness.arrived(name, time.monotonic())
+        if name not in self._seen:
+            self._seen.add(name)
+            startup_mark(f"first {name}")
+
+    def _shown_for(self, sim: PhospheneSimulator, now: float):
+        """(plan, simulator to show it with, no-data pattern) for ``sim`` at monotonic ``now``
+        (:mod:`raspv_spv.staleness`); cached while neither the simulator nor the stale inputs
+        change, so a display tick costs one pass over the watched inputs."""
+        with self._plan_lock:
+            watching = self.params["stale_inputs"] and not self.params["headless"]
+            # with a simulated device latency the display shows the inputs that long later
+            stale = self.staleness.check(now - self.view.latency_s) if watching else frozenset()
+            shown = self._shown
+            if shown is not None and shown[0] is sim and shown[1] is stale:
+                return shown[2:]
+            c = sim.config
+            plan = staleness.plan_display(c.mode, frozenset(sim.mode.needs),
+                                          [(n, o.needs | o.optional_inputs) for n, o in zip(c.overlays, sim.overlays)],
+                                          stale)
+            shown_sim = sim if plan.normal else None if plan.no_data else sim.variant(plan.mode, plan.overlays)
+            pattern = shown[4] if shown is not None and shown[0] is sim else NoDataPattern.for_simulator(sim)
+            previous = shown[2] if shown is not None else None
+            self._shown = (sim, stale, plan, shown_sim, pattern)
+        if previous is None or (plan.mode, plan.overlays) != (previous.mode, previous.overlays):
+            self._report_plan(plan, c.mode, now)
+        return plan, shown_sim, pattern
+
+    def _report_plan(self, plan: staleness.DisplayPlan, configured_mode: str, now: float) -> None:
+        """Latched ``/spv/status`` (JSON) and a log line (at most one per 2 s) when what the display
+        shows changes because inputs went stale or came back."""
+        status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
+                  "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes}
+        try:
+            self.pub_status.publish(String(data=json.dumps(status)))
+        except RCLError:
+            if self.context.ok():
+                raise
+        if plan.normal:
+            if self._stale_logged:
+                self._stale_logged = False
+                self.get_logger().info(f"inputs back: showing mode {configured_mode} again")
+        elif now - self._plan_logged >= 2.0:
+            self._plan_logged, self._stale_logged = now, True
+            what = ", ".join(self.staleness.describe(n, now) for n in sorted(plan.stale))
+            self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
+
     # -- display ------------------------------------------------------------------------------
     def tick(self, frames: int | None = None, stamp: float | None = None) -> None:
         """One display frame (headless: ``frames`` elapsed, stamped ``stamp`` s)."""
@@ -484,8 +566,12 @@ class SpvNode(RaspvNode):
         header = self.header("phosphene", stamp)
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
-            shown = self.view.levels_at(sim, map_id, stamp_to_seconds(header.stamp))
-            levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
+            plan, shown_sim, no_data = self._shown_for(sim, t0)
+            if plan.no_data:                        # the camera stopped: the no-data pattern, not its last frame
+                levels, source_stamp = no_data.levels(t0), 0.0
+            else:
+                shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
+                levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
             brightness = sim.brightness(levels, frames)
         if stamp is not None:
             source_stamp = stamp                    # headless: the frame answers this input
@@ -496,7 +582,7 @@ class SpvNode(RaspvNode):
             msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
             msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
             msg.data = array.array("B", image.tobytes())
-        frame = PhospheneFrame(header=header, map_id=map_id, mode=sim.config.mode, overlays=list(sim.config.overlays),
+        frame = PhospheneFrame(header=header, map_id=map_id, mode=plan.mode, overlays=list(plan.overlays),
                                temporal=sim.temporal is not None)
         frame.source_stamp = self.header("", source_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())
@@ -563,7 +649,7 @@ class SpvNode(RaspvNode):
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "
                   f"tick median {statistics.median(self._tick_ms):.2f} ms; {self.view.turned_ticks} re-projected "
-                  f"to a turned head", flush=True)
+                  f"to a turned head; inputs went stale {self.staleness.episodes} times", flush=True)
 
 
 def main(argv=None) -> None:

@@ -49,6 +49,9 @@ PARAMS = [
           "(needs /head/orientation to turn the camera: sim, head-mounted camera; off for recordings)"),
     Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
           "(0: as soon as the graph can)", minimum=0.0, maximum=1000.0, unit="ms"),
+    Param("stale_inputs", True, "notice inputs that stop (camera, scene, path, stairs, segmentation) and show a "
+          "fallback mode, or the blinking no-data ring, instead of the last frame (off: sources that publish "
+          "single frames)"),
     Param("output_format", "mono8", "/spv/image encoding: mono8, or green (rgb8, green channel only, for headsets)",
           choices=("mono8", "green")),
     Param("max_depth", 3.0, "depth mapped to level 0 (depth, edges_depth modes)", minimum=0.1, maximum=20.0, unit="m"),

@@ -70,8 +70,9 @@ class Source:
 
 def test_display_turns_the_last_frame_with_the_head_and_waits_the_device_latency(graph, probe):
     graph({"launch": {"nodes": [{"kind": "spv"}]},
+           # one camera frame held for seconds on purpose: not a camera that stopped
            "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
-                                       "rate": 25.0}}})
+                                       "rate": 25.0, "stale_inputs": False}}})
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
     src = Source(probe)
     src.head.publish(head_msg(probe, 0.0))
