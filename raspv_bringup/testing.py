@@ -9,14 +9,11 @@
 """
 from __future__ import annotations
 
-import fcntl
 import os
-import random
 import re
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -26,6 +23,7 @@ import psutil
 import yaml
 
 from raspv_bringup.middleware import middleware_env
+from raspv_common.ros_domains import lock_free_domain
 
 PARAM_RETRY_S = 5.0       # a parameter request without an answer is sent again after this [s]
 
@@ -36,21 +34,9 @@ def claim_private_domain(low: int = 30, high: int = 160) -> int:
     """Lock and return an unused ROS domain id; also sets it (and the middleware defaults) in
     ``os.environ`` so rclpy in this process and every child uses it."""
     global _domain_lock
-    ids = list(range(low, high))
-    random.Random(os.getpid() ^ int(time.time() * 1000)).shuffle(ids)
-    lock_dir = Path(tempfile.gettempdir()) / "raspv-domains"
-    lock_dir.mkdir(exist_ok=True)
-    for i in ids:
-        f = open(lock_dir / f"{i}.lock", "w")
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            f.close()
-            continue
-        _domain_lock = f
-        os.environ.update(middleware_env(os.environ, {"ROS_DOMAIN_ID": str(i)}))
-        return i
-    raise RuntimeError("no free ROS domain id for tests")
+    i, _domain_lock = lock_free_domain(low, high)
+    os.environ.update(middleware_env(os.environ, {"ROS_DOMAIN_ID": str(i)}))
+    return i
 
 
 class GraphStopped(AssertionError):
