@@ -98,9 +98,12 @@ def test_depthai_recording(graph, probe, depthai_recording):
 
 def test_no_camera_is_reported_and_retried_while_the_graph_runs(graph, probe, tmp_path, realsense_recording):
     later = tmp_path / "later.db3"
+    later.write_bytes(b"")         # there when the graph starts (the launcher checks that), not yet written
     g = graph(camera_graph({"driver": "realsense", "file": str(later), "retry_period": 0.2}))
-    g.wait_for_output(r"later\.db3: no such recording; retrying every 0\.2 s", timeout=60)
-    later.write_bytes(realsense_recording.path.read_bytes())          # the recording appears
+    g.wait_for_output(r"later\.db3.*; retrying every 0\.2 s", timeout=60)
+    tmp = tmp_path / "writing.db3"
+    tmp.write_bytes(realsense_recording.path.read_bytes())
+    tmp.replace(later)                                                # the recording appears, whole
     probe.wait_for_message(topics.COLOR, Image, timeout=60)
     g.wait_for_output(r"camera back", timeout=30)
     assert g.running

@@ -63,15 +63,19 @@ def test_walk_and_look_around_from_the_browser(graph, probe):
             yaw0 = head_yaw(poses.messages[-1])                           # the newest pose before the drag
             box = page.locator("#view").bounding_box()
             x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-            page.mouse.move(x, y)
-            page.mouse.down()
-            page.mouse.move(x - 240, y, steps=8)                         # 60° to the left
-            page.mouse.up()
+            target = page.evaluate(f"() => document.elementFromPoint({x}, {y})?.id")
+            drag(page, x, y)
+            if page.evaluate("() => window.raspvClient.head.yaw") == 0:
+                # Seen twice in full-suite runs only: the page counted no pointer move of the first
+                # drag (no head sent at all). Drag once more, and say so; the turn is still checked.
+                print(f"the first drag did not reach the page (element at the view's centre: {target!r}); again")
+                drag(page, x, y)
             try:
                 poses.wait(1, timeout=30, predicate=lambda m: abs(wrap(head_yaw(m) - yaw0) - math.radians(60)) < 0.2)
             except TimeoutError:
                 state = page.evaluate("() => ({role: window.raspvClient.role, head: window.raspvClient.head, "
                                       "sent: window.raspvClient.headsSent})")
+                state["element at the view's centre"] = target
                 raise AssertionError(f"head yaw {math.degrees(wrap(head_yaw(poses.messages[-1]) - yaw0)):.1f} deg "
                                      f"from the drag's start; client {state}; bridge: {g.output[-1500:]}") from None
             page.wait_for_timeout(1000)                                   # let the phosphenes follow
@@ -79,6 +83,15 @@ def test_walk_and_look_around_from_the_browser(graph, probe):
             assert np.abs(after - before).mean() > 2.0                    # the view changed
         finally:
             context.close()
+
+
+def drag(page, x: float, y: float) -> None:
+    """Drag 240 px to the left from (x, y): 60° of head yaw at the client's 0.25°/px."""
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x - 240, y, steps=8)
+    page.mouse.up()
+    page.wait_for_timeout(100)
 
 
 def wait_for_view(page, condition, timeout: float) -> np.ndarray:
