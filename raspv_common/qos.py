@@ -2,12 +2,17 @@
 
 Images are *reliable, keep-last 2*: with the shared-memory transport a reliable image costs
 ~3 ms between processes, and keep-last 2 means a slow subscriber sees the newest frame instead
-of a backlog. Commands are reliable keep-last 1 (only the newest command matters). Latched
+of a backlog. Nodes that *process* images (scene perception, odometry, the phosphene
+simulator) subscribe keep-last 1 (:data:`LATEST_QOS`): when they fall behind they skip to the
+newest frame instead of working through an older one (a frame less of latency per frame of
+backlog). Recorders keep the publishers' depth. Commands are reliable keep-last 1 (only the newest command matters). Latched
 topics (the phosphene map, class tables) are transient-local so late joiners get them.
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2,
+                        reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+LATEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                         reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)

@@ -21,7 +21,7 @@ from raspv_common import topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, matrix_to_pose,
                                       rgb_from_image)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
-from raspv_common.qos import SENSOR_QOS
+from raspv_common.qos import LATEST_QOS, SENSOR_QOS
 from raspv_perception.odometry_params import PARAMS
 from raspv_perception.rgbd_odometry import OdometryConfig, RGBDOdometry
 
@@ -41,8 +41,8 @@ class OdometryNode(RaspvNode):
         self.publishing = not p["gravity_from_floor"]
         self.pub_pose = self.create_publisher(PoseStamped, topics.CAMERA_POSE, SENSOR_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
-        self.create_subscription(Image, topics.COLOR, lambda m: self.on_image("color", m), SENSOR_QOS)
-        self.create_subscription(Image, topics.DEPTH, lambda m: self.on_image("depth", m), SENSOR_QOS)
+        self.create_subscription(Image, topics.COLOR, lambda m: self.on_image("color", m), LATEST_QOS)
+        self.create_subscription(Image, topics.DEPTH, lambda m: self.on_image("depth", m), LATEST_QOS)
         if p["gravity_from_floor"]:
             self.create_subscription(SceneStructureMsg, topics.SCENE_STRUCTURE, self.on_scene, SENSOR_QOS)
 

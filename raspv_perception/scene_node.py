@@ -21,7 +21,7 @@ from sensor_msgs.msg import CameraInfo, Image, Imu
 from raspv_common import topics
 from raspv_common.conversions import (array_to_image, pose_to_matrix, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
-from raspv_common.qos import IMU_QOS, SENSOR_QOS
+from raspv_common.qos import IMU_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_perception.imu_gravity import GravityFilter
 from raspv_perception.scene_config import SceneConfig
 from raspv_perception.scene_msg import structure_to_msg
@@ -62,7 +62,7 @@ class SceneNode(RaspvNode):
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(PoseStamped, topics.CAMERA_POSE, self.on_pose, SENSOR_QOS)
         self.create_subscription(Imu, topics.IMU, self.on_imu, IMU_QOS)
-        self.create_subscription(Image, topics.DEPTH, self.on_depth, SENSOR_QOS)
+        self.create_subscription(Image, topics.DEPTH, self.on_depth, LATEST_QOS)    # the newest frame when behind
 
     def on_parameters(self, changes):
         try:

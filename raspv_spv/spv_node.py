@@ -51,7 +51,7 @@ from raspv_common import topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, image_to_array,
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
-from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
@@ -302,7 +302,8 @@ class SpvNode(RaspvNode):
                   "nav_guidance": (NavGuidance, topics.NAV_GUIDANCE, self.on_nav_guidance)}
         for name, (msg_type, topic, callback) in wanted.items():
             if name in needs and name not in self._subs:
-                qos = LATCHED_QOS if name == "segmentation_classes" else SENSOR_QOS
+                qos = (LATCHED_QOS if name == "segmentation_classes"
+                       else LATEST_QOS if name in ("color", "depth", "scene", "scene_labels") else SENSOR_QOS)
                 self._subs[name] = self.create_subscription(msg_type, topic, callback, qos)
             elif name not in needs and name in self._subs:
                 self.destroy_subscription(self._subs.pop(name))
