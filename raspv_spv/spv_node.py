@@ -52,6 +52,7 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
+from raspv_common.thread_priority import raise_thread_priority
 from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
@@ -602,6 +603,7 @@ class SpvNode(RaspvNode):
     def _display_loop(self) -> None:
         """Call :meth:`tick` every 1/rate s on absolute deadlines; after a stall it resumes from
         now (the frames missed are counted as dropped by ``tick``)."""
+        raise_thread_priority()           # where allowed (raspv_common/thread_priority.py)
         deadline = time.monotonic()
         while not self._stop_display.is_set():
             period = 1.0 / self.params["rate"]
