@@ -161,6 +161,17 @@ class Probe:
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
+        self._publishers: list[Any] = []
+        self._collectors: list[Collector] = []
+
+    def release(self) -> None:
+        """Destroy the publishers and subscriptions made since the last call (the end of a test),
+        so a latched message or a subscription of one test does not reach into the next."""
+        for pub in self._publishers:
+            self.node.destroy_publisher(pub)
+        for col in self._collectors:
+            self.node.destroy_subscription(col.subscription)
+        self._publishers, self._collectors = [], []
 
     def _spin(self) -> None:
         try:
@@ -183,10 +194,13 @@ class Probe:
             qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
         col = Collector()
         col.subscription = self.node.create_subscription(msg_type, topic, col._add, qos)
+        self._collectors.append(col)
         return col
 
     def unsubscribe(self, col: Collector) -> None:
-        self.node.destroy_subscription(col.subscription)
+        if col in self._collectors:
+            self._collectors.remove(col)
+            self.node.destroy_subscription(col.subscription)
 
     def wait_for_message(self, topic: str, msg_type: type, timeout: float = 30.0, qos: Any = None,
                          predicate: Callable[[Any], bool] | None = None) -> Any:
@@ -209,6 +223,7 @@ class Probe:
         from raspv_common.qos import COMMAND_QOS
 
         pub = self.node.create_publisher(msg_type, topic, qos or COMMAND_QOS)
+        self._publishers.append(pub)
         deadline = time.monotonic() + timeout
         while pub.get_subscription_count() < wait_for_subscribers:
             if time.monotonic() > deadline:

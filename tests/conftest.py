@@ -29,10 +29,18 @@ def data_dir() -> Path:
 
 
 @pytest.fixture(scope="session")
-def probe(ros_domain):
+def session_probe(ros_domain):
     p = Probe()
     yield p
     p.close()
+
+
+@pytest.fixture
+def probe(session_probe):
+    """The session's probe node; what a test publishes or subscribes through it ends with the
+    test (a latched message left by one test would reach the next test's nodes)."""
+    yield session_probe
+    session_probe.release()
 
 
 @pytest.fixture
