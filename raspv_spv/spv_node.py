@@ -21,7 +21,7 @@ cannot be built) and the new simulator — sprites and temporal table can take s
 time — is built in the background (:mod:`raspv_spv.background_build`; what is not in the disk
 caches by a lower-priority subprocess, :mod:`raspv_spv.prebuild`) while the old one keeps
 displaying; it is swapped in between two display ticks, with levels already computed from the
-latest frame, so the display never stalls. Bad input images are skipped with one rate-limited
+latest frame, so the display never stalls (:mod:`raspv_spv.spv_node_rebuild`). Bad input images are skipped with one rate-limited
 warning. Inputs that stop are noticed within 300 ms (:mod:`raspv_spv.staleness`): scene modes
 fall back to ``depth``, overlays whose input stopped are dropped, a stopped camera shows the
 blinking no-data ring (:mod:`raspv_spv.no_data`); ``/spv/status`` says what is shown.
@@ -30,11 +30,9 @@ from __future__ import annotations
 
 import array
 import json
-import os
 import statistics
 import sys
 from collections import deque
-from dataclasses import dataclass
 import threading
 import time
 
@@ -42,7 +40,6 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, QuaternionStamped
 from rclpy._rclpy_pybind11 import RCLError
 from nav_msgs.msg import Odometry
-from rclpy.parameter import Parameter
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
@@ -60,58 +57,21 @@ from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
-from raspv_spv import display_budget, staleness
+from raspv_spv import staleness
 from raspv_spv.background_build import BackgroundBuilder
-from raspv_spv.config import SpvConfig, config_from_node_params
-from raspv_spv.device import DeviceError
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
-from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
-from raspv_spv.prebuild import missing_from_cache, prebuild_in_subprocess
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
 from raspv_spv.reprojection import DisplayFrame, DisplayView
-from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, describe_layout, describe_sprites
+from raspv_spv.simulator import InputError, PhospheneSimulator
+from raspv_spv.spv_node_rebuild import _BUILD_ERRORS, SpvReconfiguration, _reason, _Rebuild, build_simulator
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
 VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
-STARTUP_RATE_CHECK_S = 3.0     # the start-up configuration's display budget is checked this long after start
-_BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
 
 
-def _reason(exc: Exception) -> str:
-    """The message of a build error (KeyError's str() adds quotes)."""
-    return str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
-
-
-def checked_config(params: dict) -> tuple[SpvConfig, PhospheneMapCore]:
-    """The configuration and map of the node's parameter values, checked (raises one of
-    ``_BUILD_ERRORS``); quick — what takes long is left to :class:`PhospheneSimulator`."""
-    if params["edge_low"] > params["edge_high"]:
-        raise ValueError(f"edge_low ({params['edge_low']}) must not exceed edge_high ({params['edge_high']})")
-    config = config_from_node_params(params)
-    return config, check_config(config)
-
-
-def build_simulator(params: dict) -> PhospheneSimulator:
-    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
-    config, phosphene_map = checked_config(params)
-    return PhospheneSimulator(config, phosphene_map=phosphene_map)
-
-
-@dataclass
-class _Rebuild:
-    """A checked parameter change waiting for its simulator (built in the background)."""
-
-    params: dict
-    config: SpvConfig
-    phosphene_map: PhospheneMapCore
-    map_id: int
-    sim: PhospheneSimulator | None = None
-    levels: tuple[DisplayFrame, np.ndarray] | None = None   # (newest frame, its levels by the new simulator)
-
-
-class SpvNode(RaspvNode):
+class SpvNode(SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
@@ -168,118 +128,6 @@ class SpvNode(RaspvNode):
         threading.Thread(target=self._check_rate_after_start, name="spv-rate-check", daemon=True).start()
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
-
-    # -- configuration ------------------------------------------------------------------------
-    def _describe(self, sim: PhospheneSimulator) -> str:
-        c = sim.config
-        return (f"{c.device.name}: {sim.count} {describe_layout(sim)} phosphenes, "
-                f"FOV {c.device.fov_deg:g} deg, {describe_sprites(sim)}, {c.width}x{c.height} "
-                f"{c.output_format}, mode {c.mode}, temporal {c.temporal_model if c.temporal else 'off'}, "
-                f"{c.frame_rate:g} Hz")
-
-    def on_parameters(self, changes):
-        merged = {**self.params, **changes}
-        verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
-        if verdict is not None and verdict.refuse:
-            return verdict.message
-        try:
-            config, phosphene_map = checked_config(merged)
-        except _BUILD_ERRORS as exc:
-            return _reason(exc)
-        spec, map_id = self._requested
-        if config.map_spec() != spec:                # one map id per accepted change of the map
-            map_id += 1
-        self._requested = (config.map_spec(), map_id)
-        self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
-        if "rate" in changes:
-            self._last_tick = None                  # the display loop picks up the new period
-        if "reprojection" in changes or "device_latency_ms" in changes:
-            self.view.configure(merged["reprojection"], merged["device_latency_ms"])
-            self._update_subscriptions(self.sim.needs, merged["reprojection"])
-        if verdict is not None and verdict.warn:
-            self.get_logger().warning(verdict.message)
-        return None
-
-    # -- background rebuild (worker thread) ---------------------------------------------------
-    def _build(self, request: _Rebuild) -> _Rebuild:
-        """Build the new simulator and its levels for the latest frame, so the swap shows the
-        new configuration at once instead of blank phosphenes until the next camera frame.
-        What is not in the disk caches yet is built by a lower-priority subprocess first, so
-        this process only reads it back (no GIL or CPU taken from the display thread)."""
-        missing = missing_from_cache(request.config, request.phosphene_map)
-        if missing:
-            self.get_logger().info(f"building the {' and '.join(missing)} of {request.config.device.name} "
-                                   "in the background")
-            prebuild_in_subprocess(request.config)
-        request.sim = PhospheneSimulator(request.config, phosphene_map=request.phosphene_map)
-        frame = self.view.newest_frame()
-        if frame is not None:
-            try:
-                request.levels = (frame, request.sim.levels(frame.inputs))
-            except InputError:
-                pass
-        return request
-
-    def _swap_in(self, request: _Rebuild, _result) -> None:
-        with self._sim_lock:
-            old = self.sim
-            request.sim.adopt_state(old)
-            map_changed = request.map_id != self.map_id
-            self.sim, self.map_id = request.sim, request.map_id
-            if request.levels is not None and self.view.newest_frame() is request.levels[0]:
-                frame, levels = request.levels
-                self.view.add_frame(DisplayFrame(frame.stamp, frame.inputs, levels, request.map_id, request.sim))
-            self._applied_params = dict(request.params)
-            self._swap_pending = True
-            self._map_pending |= map_changed
-        self._after_build.trigger()
-
-    def _build_failed(self, request: _Rebuild, exc: Exception) -> None:
-        self._failed = (request, exc)
-        self._after_build.trigger()
-
-    def _on_build_done(self) -> None:
-        """Executor thread: subscriptions, /spv/map and the log after a swap; after a failed
-        build, the parameters go back to the values on display."""
-        with self._sim_lock:
-            swapped, publish = self._swap_pending, self._map_pending
-            self._swap_pending = self._map_pending = False
-        if swapped:
-            self._update_subscriptions(self.sim.needs)
-            if publish:
-                self.publish_map()
-            self.get_logger().info(self._describe(self.sim))
-        failed, self._failed = self._failed, None
-        if failed is not None:
-            request, exc = failed
-            self.get_logger().error(f"could not build {request.config.device.name}: {exc}; "
-                                    f"keeping {self.sim.config.device.name}")
-            back = {k: v for k, v in self._applied_params.items() if self.params.get(k) != v}
-            if back:
-                self.set_parameters([Parameter(k, value=v) for k, v in back.items()])
-
-    def display_rate_verdict(self, params: dict) -> display_budget.RateVerdict | None:
-        """Can ``params`` run at their display rate here? (:mod:`raspv_spv.display_budget`: a cost
-        model measured on this machine, plus the overhead measured on this node's display loop)."""
-        try:
-            current = display_budget.load_of_config(self.sim.config)
-            overhead = display_budget.observed_overhead_ms(list(self._tick_ms), current)
-        except ValueError:
-            overhead = 0.0
-        return display_budget.check_node_params(params, overhead_ms=overhead)
-
-    def _check_rate_after_start(self) -> None:
-        """Once, a few seconds after start (low priority thread): warn when the configuration
-        the node started with cannot keep its display rate."""
-        if self._stop_display.wait(STARTUP_RATE_CHECK_S):
-            return
-        try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)   # this thread only (Linux)
-        except (AttributeError, OSError):
-            pass
-        verdict = self.display_rate_verdict(dict(self.params))
-        if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
-            self.get_logger().warning(verdict.message)
 
     def _update_subscriptions(self, needs: frozenset[str], reprojection: bool | None = None) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional) and those the

@@ -1,0 +1,174 @@
+"""The spv node's run-time reconfiguration (a mixin of :class:`raspv_spv.spv_node.SpvNode`):
+a parameter change is checked at once — refused with the reason when it cannot be built or
+cannot keep the display rate (:mod:`raspv_spv.display_budget`) — and the new simulator is built
+in the background (:mod:`raspv_spv.background_build`; what the disk caches lack by a
+lower-priority subprocess, :mod:`raspv_spv.prebuild`), with its levels for the newest frame,
+then swapped in between two display ticks.
+"""
+from __future__ import annotations
+
+import os
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+from rclpy.parameter import Parameter
+
+from raspv_spv import display_budget
+from raspv_spv.config import SpvConfig, config_from_node_params
+from raspv_spv.device import DeviceError
+from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
+from raspv_spv.prebuild import missing_from_cache, prebuild_in_subprocess
+from raspv_spv.reprojection import DisplayFrame
+from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, describe_layout, describe_sprites
+
+STARTUP_RATE_CHECK_S = 3.0     # the start-up configuration's display budget is checked this long after start
+_BUILD_ERRORS = (DeviceError, MapError, ValueError, KeyError)
+
+
+def _reason(exc: Exception) -> str:
+    """The message of a build error (KeyError's str() adds quotes)."""
+    return str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+
+
+def checked_config(params: dict) -> tuple[SpvConfig, PhospheneMapCore]:
+    """The configuration and map of the node's parameter values, checked (raises one of
+    ``_BUILD_ERRORS``); quick — what takes long is left to :class:`PhospheneSimulator`."""
+    if params["edge_low"] > params["edge_high"]:
+        raise ValueError(f"edge_low ({params['edge_low']}) must not exceed edge_high ({params['edge_high']})")
+    config = config_from_node_params(params)
+    return config, check_config(config)
+
+
+def build_simulator(params: dict) -> PhospheneSimulator:
+    """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
+    config, phosphene_map = checked_config(params)
+    return PhospheneSimulator(config, phosphene_map=phosphene_map)
+
+
+@dataclass
+class _Rebuild:
+    """A checked parameter change waiting for its simulator (built in the background)."""
+
+    params: dict
+    config: SpvConfig
+    phosphene_map: PhospheneMapCore
+    map_id: int
+    sim: PhospheneSimulator | None = None
+    levels: tuple[DisplayFrame, np.ndarray] | None = None   # (newest frame, its levels by the new simulator)
+
+
+class SpvReconfiguration:
+    """Parameter changes of the spv node: checked, built in the background, swapped in."""
+
+    # -- configuration ------------------------------------------------------------------------
+    def _describe(self, sim: PhospheneSimulator) -> str:
+        c = sim.config
+        return (f"{c.device.name}: {sim.count} {describe_layout(sim)} phosphenes, "
+                f"FOV {c.device.fov_deg:g} deg, {describe_sprites(sim)}, {c.width}x{c.height} "
+                f"{c.output_format}, mode {c.mode}, temporal {c.temporal_model if c.temporal else 'off'}, "
+                f"{c.frame_rate:g} Hz")
+
+    def on_parameters(self, changes):
+        merged = {**self.params, **changes}
+        verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
+        if verdict is not None and verdict.refuse:
+            return verdict.message
+        try:
+            config, phosphene_map = checked_config(merged)
+        except _BUILD_ERRORS as exc:
+            return _reason(exc)
+        spec, map_id = self._requested
+        if config.map_spec() != spec:                # one map id per accepted change of the map
+            map_id += 1
+        self._requested = (config.map_spec(), map_id)
+        self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
+        if "rate" in changes:
+            self._last_tick = None                  # the display loop picks up the new period
+        if "reprojection" in changes or "device_latency_ms" in changes:
+            self.view.configure(merged["reprojection"], merged["device_latency_ms"])
+            self._update_subscriptions(self.sim.needs, merged["reprojection"])
+        if verdict is not None and verdict.warn:
+            self.get_logger().warning(verdict.message)
+        return None
+
+    # -- background rebuild (worker thread) ---------------------------------------------------
+    def _build(self, request: _Rebuild) -> _Rebuild:
+        """Build the new simulator and its levels for the latest frame, so the swap shows the
+        new configuration at once instead of blank phosphenes until the next camera frame.
+        What is not in the disk caches yet is built by a lower-priority subprocess first, so
+        this process only reads it back (no GIL or CPU taken from the display thread)."""
+        missing = missing_from_cache(request.config, request.phosphene_map)
+        if missing:
+            self.get_logger().info(f"building the {' and '.join(missing)} of {request.config.device.name} "
+                                   "in the background")
+            prebuild_in_subprocess(request.config)
+        request.sim = PhospheneSimulator(request.config, phosphene_map=request.phosphene_map)
+        frame = self.view.newest_frame()
+        if frame is not None:
+            try:
+                request.levels = (frame, request.sim.levels(frame.inputs))
+            except InputError:
+                pass
+        return request
+
+    def _swap_in(self, request: _Rebuild, _result) -> None:
+        with self._sim_lock:
+            old = self.sim
+            request.sim.adopt_state(old)
+            map_changed = request.map_id != self.map_id
+            self.sim, self.map_id = request.sim, request.map_id
+            if request.levels is not None and self.view.newest_frame() is request.levels[0]:
+                frame, levels = request.levels
+                self.view.add_frame(DisplayFrame(frame.stamp, frame.inputs, levels, request.map_id, request.sim))
+            self._applied_params = dict(request.params)
+            self._swap_pending = True
+            self._map_pending |= map_changed
+        self._after_build.trigger()
+
+    def _build_failed(self, request: _Rebuild, exc: Exception) -> None:
+        self._failed = (request, exc)
+        self._after_build.trigger()
+
+    def _on_build_done(self) -> None:
+        """Executor thread: subscriptions, /spv/map and the log after a swap; after a failed
+        build, the parameters go back to the values on display."""
+        with self._sim_lock:
+            swapped, publish = self._swap_pending, self._map_pending
+            self._swap_pending = self._map_pending = False
+        if swapped:
+            self._update_subscriptions(self.sim.needs)
+            if publish:
+                self.publish_map()
+            self.get_logger().info(self._describe(self.sim))
+        failed, self._failed = self._failed, None
+        if failed is not None:
+            request, exc = failed
+            self.get_logger().error(f"could not build {request.config.device.name}: {exc}; "
+                                    f"keeping {self.sim.config.device.name}")
+            back = {k: v for k, v in self._applied_params.items() if self.params.get(k) != v}
+            if back:
+                self.set_parameters([Parameter(k, value=v) for k, v in back.items()])
+
+    def display_rate_verdict(self, params: dict) -> display_budget.RateVerdict | None:
+        """Can ``params`` run at their display rate here? (:mod:`raspv_spv.display_budget`: a cost
+        model measured on this machine, plus the overhead measured on this node's display loop)."""
+        try:
+            current = display_budget.load_of_config(self.sim.config)
+            overhead = display_budget.observed_overhead_ms(list(self._tick_ms), current)
+        except ValueError:
+            overhead = 0.0
+        return display_budget.check_node_params(params, overhead_ms=overhead)
+
+    def _check_rate_after_start(self) -> None:
+        """Once, a few seconds after start (low priority thread): warn when the configuration
+        the node started with cannot keep its display rate."""
+        if self._stop_display.wait(STARTUP_RATE_CHECK_S):
+            return
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)   # this thread only (Linux)
+        except (AttributeError, OSError):
+            pass
+        verdict = self.display_rate_verdict(dict(self.params))
+        if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
+            self.get_logger().warning(verdict.message)
