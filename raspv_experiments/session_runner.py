@@ -26,7 +26,7 @@ from raspv_bringup.supervisor import Supervisor, _die_with_parent
 from raspv_experiments.design import PlannedTrial, plan_session, subject_number
 from raspv_experiments.metrics import trajectory_record, trial_metrics
 from raspv_experiments.protocol import Protocol, Task
-from raspv_experiments.runner_node import GraphClient, RunnerError
+from raspv_experiments.runner_node import GraphClient
 from raspv_experiments.session import SessionError, SessionFolder, now_iso
 from raspv_experiments.session_control import ExperimenterControl, TrialMonitor, ViewState
 from raspv_experiments.world_geometry import world_geometry

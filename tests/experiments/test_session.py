@@ -3,7 +3,6 @@ experimenter's keys and trial ends are state machines without I/O."""
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import textwrap

@@ -3,7 +3,6 @@ and TorchScript, as docs/perception.md tells users to), its model YAML, the same
 through onnxruntime and torch, and one-line errors for every kind of bad model."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
