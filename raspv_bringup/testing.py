@@ -235,25 +235,13 @@ class Probe:
         from raspv_common.param_client import ParamClient
 
         client = ParamClient(self.node, target)
-        done = threading.Event()
-        result: list[Any] = []
         try:
-            deadline = time.monotonic() + timeout
-            while not client.is_ready():
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"parameter services of {target} not available")
-                time.sleep(0.05)
-            # A fresh client's request can be served before the node's response writer matched
-            # our reader (the answer is then lost): ask again every few seconds until the deadline.
-            # Parameter requests are idempotent, so a second answer changes nothing.
-            while True:
-                call(client, lambda r: (result.append(r), done.set()))
-                if done.wait(min(PARAM_RETRY_S, max(0.0, deadline - time.monotonic()))):
-                    return result[0]
-                if time.monotonic() >= deadline:
-                    raise TimeoutError(f"{target} did not answer a parameter request within {timeout:.0f} s")
+            ok, answer = client.ask_until_answered(lambda done: call(client, done), timeout, PARAM_RETRY_S)
         finally:
             client.destroy()
+        if not ok:
+            raise TimeoutError(answer)
+        return answer
 
     def set_params(self, target: str, values: dict[str, Any], timeout: float = 30.0) -> list[tuple[str, bool, str]]:
         """Set parameters of node ``target``; returns [(name, successful, reason)]."""

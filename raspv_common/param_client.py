@@ -98,6 +98,30 @@ class ParamClient:
         """True once the target's get/set parameter services are discovered."""
         return self._get.service_is_ready() and self._set.service_is_ready()
 
+    def ask_until_answered(self, ask: Callable[[Callable[[Any], None]], None], timeout_s: float,
+                           retry_s: float = 5.0) -> tuple[bool, Any]:
+        """Block until ``ask(done)`` — e.g. ``lambda done: client.set_async(values, done)`` —
+        answers: (True, answer), or (False, why) after ``timeout_s``. Waits for the services
+        first, then asks again every ``retry_s``: a fresh client's request can be served before
+        the node's reply writer has matched its reader, and that answer is lost. Parameter
+        requests are idempotent, so a second answer changes nothing (the first one is kept)."""
+        import threading
+        import time
+
+        deadline = time.monotonic() + timeout_s
+        while not self.is_ready():
+            if time.monotonic() > deadline:
+                return False, f"parameter services of {self.target} not available"
+            time.sleep(0.05)
+        done = threading.Event()
+        answers: list[Any] = []
+        while True:
+            ask(lambda answer: (answers.append(answer), done.set()))
+            if done.wait(min(retry_s, max(0.0, deadline - time.monotonic()))):
+                return True, answers[0]
+            if time.monotonic() >= deadline:
+                return False, f"{self.target} did not answer a parameter request within {timeout_s:.0f} s"
+
     # -- non-blocking ---------------------------------------------------------------------
     def set_async(self, values: dict[str, Any], done: Callable[[list[tuple[str, bool, str]]], None] | None = None,
                   types: dict[str, int] | None = None) -> None:

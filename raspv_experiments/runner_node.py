@@ -159,15 +159,13 @@ class GraphClient:
         if not values:
             return
         client = ParamClient(self.node, node)
-        done = threading.Event()
-        result: list[Any] = []
         try:
-            client.set_async(values, lambda r: (result.append(r), done.set()))
-            if not done.wait(timeout):
-                raise RunnerError(f"node {node} did not answer a parameter request within {timeout:.0f} s")
+            ok, answer = client.ask_until_answered(lambda done: client.set_async(values, done), timeout)
         finally:
             client.destroy()
-        refused = [f"{name}: {reason}" for name, ok, reason in result[0] if not ok]
+        if not ok:
+            raise RunnerError(f"node {node}: {answer}")
+        refused = [f"{name}: {reason}" for name, ok, reason in answer if not ok]
         if refused:
             raise RunnerError(f"node {node} refused {'; '.join(refused)}")
 
