@@ -139,8 +139,11 @@ def test_tcp_client_that_stops_reading_is_closed_promptly_after_its_refusals(sta
     async def run():
         tcp = await TcpClient.open(server)
         await tcp.send(P.client_message("hello", name="flooder", role="watch"))
-        for _ in range(25):
-            await tcp.send("junk")
+        try:
+            for _ in range(25):
+                await tcp.send("junk")
+        except ConnectionError:
+            return                      # closed by the server after the 20th refusal, before our 25th
         assert await tcp.closed_by_server(WS_CLOSE_LINGER_S / 2)
 
     asyncio.run(run())
