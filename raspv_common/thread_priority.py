@@ -2,24 +2,77 @@
 
 On a 2-core machine the graph's processes (simulator, perception, phosphene display, headset
 server) compete for the cores; a display tick or a frame send that waits for the scheduler is a
-late head turn on the headset. The spv display thread and the headset server's thread ask for a
-higher priority (a lower nice value, per thread on Linux). Raising priority needs root or
-CAP_SYS_NICE (or an RLIMIT_NICE); without it nothing changes and the thread runs as before.
-Measured (`raspv bench e2e`, demo graph, quiet 2-core VM): head turn → phosphenes onset p95
-52 → 26 ms, dropped display frames 1.9 → 0.75 %.
+late head turn on the headset. The threads on the path from the wearer's head to the phosphenes
+ask for a higher priority, as VR compositors do:
+
+- ``realtime``: the round-robin real-time class (``SCHED_RR``, priority ``HEADSET_RT_PRIORITY``),
+  with reset-on-fork so that a subprocess starts as a normal process; Linux's real-time
+  throttling keeps 5 % of every second for normal processes whatever happens;
+- otherwise, or when that is not allowed: a lower nice value (``HEADSET_NICE``).
+
+Both need root or CAP_SYS_NICE (or RLIMIT_RTPRIO / RLIMIT_NICE); without them nothing changes and
+the thread runs as before. Threads created afterwards inherit the class and nice value, so
+background work in such a process lowers itself with :func:`lower_thread_priority`.
+Measured (`raspv bench e2e`, demo graph, quiet 2-core VM) in docs/spv.md#latency.
 """
 from __future__ import annotations
 
 import os
 import threading
+from contextlib import contextmanager
 
-HEADSET_NICE = -10      # display thread and headset server thread
+HEADSET_NICE = -10           # display thread and headset server thread
+HEADSET_RT_PRIORITY = 10     # of 1..99; above nothing else the graph runs
+_RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
 
 
-def raise_thread_priority(nice: int = HEADSET_NICE) -> bool:
-    """Give the calling thread the ``nice`` value when allowed; whether it was."""
+def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False) -> bool:
+    """Give the calling thread real-time round-robin scheduling (``realtime``) or the ``nice``
+    value, when allowed; whether it changed."""
+    if realtime:
+        try:
+            os.sched_setscheduler(0, os.SCHED_RR | _RESET_ON_FORK, os.sched_param(HEADSET_RT_PRIORITY))
+            return True
+        except (AttributeError, OSError):
+            pass
     try:
         os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), nice)
         return True
     except (AttributeError, OSError):
         return False
+
+
+def lower_thread_priority(nice: int) -> None:
+    """Make the calling thread a normal thread (leaving a real-time class it inherited) with the
+    given ``nice`` value, where allowed (background builds, checks)."""
+    try:
+        if os.sched_getscheduler(0) & ~_RESET_ON_FORK != os.SCHED_OTHER:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (AttributeError, OSError):
+        pass
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), nice)
+    except (AttributeError, OSError):
+        pass
+
+
+@contextmanager
+def normal_priority(nice: int = 0):
+    """Run a block (a long start-up build) as a normal thread, then restore the calling
+    thread's class and nice value."""
+    try:
+        policy, param = os.sched_getscheduler(0) & ~_RESET_ON_FORK, os.sched_getparam(0)
+        old_nice = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    except (AttributeError, OSError):
+        yield
+        return
+    lower_thread_priority(nice)
+    try:
+        yield
+    finally:
+        try:
+            if policy != os.SCHED_OTHER:
+                os.sched_setscheduler(0, policy | _RESET_ON_FORK, param)
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), old_nice)
+        except OSError:
+            pass

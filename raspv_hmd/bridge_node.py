@@ -240,7 +240,7 @@ class BridgeNode(RaspvNode):
 
 
 def main(argv: list[str] | None = None) -> None:
-    run_node(BridgeNode, argv)
+    run_node(BridgeNode, argv, headset_path=True)
 
 
 if __name__ == "__main__":

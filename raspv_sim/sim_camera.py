@@ -98,7 +98,7 @@ class RawFrame:
 
     rgb: np.ndarray
     depth: np.ndarray
-    body: np.ndarray
+    body: np.ndarray | None            # None when rendered without the id buffer
 
 
 class SimCamera:
@@ -125,15 +125,17 @@ class SimCamera:
                 sky[2, 3] = 1e4           # far above everything, looking up: nothing to draw
                 self.client.getCameraImage(8, 8, view_matrix(sky), self._proj, renderer=self.renderer.flag)
 
-    def render(self, world_from_camera: np.ndarray) -> RawFrame:
+    def render(self, world_from_camera: np.ndarray, body: bool = True) -> RawFrame:
+        """RGB, depth and (``body``) the body-id buffer; without it ``body`` is None and the
+        render is cheaper (EGL draws the id buffer in a pass of its own: 465×366, 52 → 44 ms)."""
         W, H = self.intrinsics.width, self.intrinsics.height
         _, _, rgba, zbuf, seg = self.client.getCameraImage(
             W, H, view_matrix(world_from_camera), self._proj, renderer=self.renderer.flag,
-            lightDirection=self.light_direction, shadow=0)
+            lightDirection=self.light_direction, shadow=0, flags=0 if body else pybullet.ER_NO_SEGMENTATION_MASK)
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(H, W, 4)
         zbuf = np.asarray(zbuf, dtype=np.float32).reshape(H, W)
-        seg = np.asarray(seg, dtype=np.int32).reshape(H, W)
-        return RawFrame(np.ascontiguousarray(rgba[..., :3]), self.metric_depth(zbuf), seg)
+        ids = np.asarray(seg, dtype=np.int32).reshape(H, W) if body else None
+        return RawFrame(np.ascontiguousarray(rgba[..., :3]), self.metric_depth(zbuf), ids)
 
     def metric_depth(self, zbuf: np.ndarray) -> np.ndarray:
         """Depth-buffer values in [0, 1] → z [m] along the optical axis (NaN beyond ``far``)."""

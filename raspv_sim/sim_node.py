@@ -226,7 +226,8 @@ class SimNode(RaspvNode):
             dt, command = 0.0, (0.0, 0.0)
         report = self.sim.step(dt, *command)
         t1 = time.monotonic()
-        frame = self.sim.render()
+        labels = self.params["publish_labels"] and self.pub_labels.get_subscription_count() > 0
+        frame = self.sim.render(labels=labels)           # labels only for someone: a cheaper render
         t2 = time.monotonic()
         stamp = self.sim.t if self.lockstep is not None else None      # lockstep: stamped in sim time
         self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
@@ -239,7 +240,7 @@ class SimNode(RaspvNode):
             self._first_frame_logged = True
             h = header.stamp
             self.get_logger().info(f"first camera frame published, stamp {h.sec + 1e-9 * h.nanosec:.6f}")
-        if self.params["publish_labels"]:
+        if frame.labels is not None:
             self.pub_labels.publish(array_to_image(frame.labels, "mono8", header))
         world_header = self.header("world")
         world_header.stamp = header.stamp

@@ -26,7 +26,7 @@ PARAMS = [
     Param("cmd_timeout", 0.5, "stop when no /cmd_vel arrived for this long (0: never)", minimum=0.0, maximum=10.0, unit="s"),
     Param("collision_debounce", 0.5, "contacts with the same object closer in time than this are one collision",
           minimum=0.0, maximum=10.0, unit="s"),
-    Param("publish_labels", True, "publish ground-truth class ids on /sim/labels"),
+    Param("publish_labels", True, "publish ground-truth class ids on /sim/labels (rendered only while someone subscribes)"),
     Param("depth_noise", False, "degrade depth like a real sensor (noise, quantisation, missing pixels)"),
     Param("depth_noise_at_1m", 0.0014, "axial depth noise sigma at 1 m (grows with z squared)", minimum=0.0,
           maximum=0.05, unit="m"),

@@ -62,7 +62,7 @@ class SimFrame:
     t: float
     rgb: np.ndarray
     depth: np.ndarray
-    labels: np.ndarray
+    labels: np.ndarray | None          # None when rendered without labels
     world_from_camera: np.ndarray
     intrinsics: CameraIntrinsics
 
@@ -207,10 +207,13 @@ class Simulation:
             self.log.sample(self.trajectory_sample())
         return report
 
-    def render(self) -> SimFrame:
-        """The camera's view now (with the depth-sensor model applied when configured)."""
+    def render(self, labels: bool = True) -> SimFrame:
+        """The camera's view now (with the depth-sensor model applied when configured); without
+        ``labels`` the frame's labels are None (a cheaper render unless the depth model needs them)."""
         T = self.avatar.world_from_camera()
-        raw = self.camera.render(T)
+        raw = self.camera.render(T, body=labels or self.depth_model is not None)
+        if raw.body is None:
+            return SimFrame(self.t, raw.rgb, raw.depth, None, T, self.camera.intrinsics)
         body = np.clip(raw.body + 1, 0, len(self.world.class_lut) - 1)
         labels = self.world.class_lut[body]
         depth = raw.depth

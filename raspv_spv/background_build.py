@@ -12,9 +12,10 @@ and a finished build that a newer request already made obsolete is dropped, neve
 """
 from __future__ import annotations
 
-import os
 import threading
 from typing import Any, Callable, Generic, TypeVar
+
+from raspv_common.thread_priority import lower_thread_priority
 
 T = TypeVar("T")
 
@@ -73,10 +74,7 @@ class BackgroundBuilder(Generic[T]):
             thread.join(timeout)
 
     def _work(self) -> None:
-        try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), BUILD_NICENESS)
-        except (AttributeError, OSError):
-            pass                                    # not Linux, or not allowed: normal priority
+        lower_thread_priority(BUILD_NICENESS)       # not Linux, or not allowed: as it was
         while True:
             with self._lock:
                 if self._closed or self._pending is None:

@@ -12,7 +12,8 @@ to show (:class:`~raspv_spv.reprojection.DisplayView`: the newest, or the one ca
 reprojection), advances the temporal model and publishes ``/spv/image`` and ``/spv/frame``
 whatever the inputs do: it never waits for a camera frame, and ticks it could not run on time
 are counted as dropped frames (the temporal model then advances by the frames that elapsed)
-and reported every 10 s.
+and reported every 10 s. With the temporal model off (``display_on_input``) a head turn or a
+new frame is shown at once instead of at the next tick (:mod:`raspv_spv.display_clock`).
 With ``headless`` there is no display loop: each computed frame is published at once with its
 input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.
 ``/spv/map`` is latched and re-published whenever the map changes. A parameter change is
@@ -49,7 +50,7 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
-from raspv_common.thread_priority import raise_thread_priority
+from raspv_common.thread_priority import normal_priority, raise_thread_priority
 from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
@@ -59,6 +60,7 @@ from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
 from raspv_spv import staleness
 from raspv_spv.background_build import BackgroundBuilder
+from raspv_spv.display_clock import DisplayClock
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -68,6 +70,7 @@ from raspv_spv.spv_node_rebuild import _BUILD_ERRORS, SpvReconfiguration, _reaso
 from raspv_spv.spv_params import PARAMS
 
 REPORT_PERIOD_S = 10.0
+HEAD_POKE_COS = float(np.cos(np.radians(0.1) / 2))  # a head turn of more than 0.1° is shown at once
 VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
 
 
@@ -75,7 +78,8 @@ class SpvNode(SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
-            self.sim = build_simulator(self.params)
+            with normal_priority():                 # not ahead of the other nodes starting up
+                self.sim = build_simulator(self.params)
         except _BUILD_ERRORS as exc:
             raise ConfigurationError(_reason(exc)) from None
         self.map_id = 1
@@ -120,6 +124,8 @@ class SpvNode(SpvReconfiguration, RaspvNode):
         # timer: behind input callbacks and executor overhead a timer tick came late often
         # enough to drop 7 % of the frames in the demo graph.
         self._stop_display = threading.Event()
+        self.clock = DisplayClock()
+        self._shown_head: np.ndarray | None = None      # the last head orientation that poked the display
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
         self._headless_stamp: float | None = None
         if not self.params["headless"]:
@@ -201,6 +207,12 @@ class SpvNode(SpvReconfiguration, RaspvNode):
             self.view.tracker.add_head(stamp_to_seconds(msg.header.stamp), (q.x, q.y, q.z, q.w))
         except ValueError as exc:
             self.warn_throttled("head", f"ignoring {topics.HEAD_ORIENTATION}: {exc}")
+            return
+        quat = np.array([q.x, q.y, q.z, q.w])
+        quat /= np.linalg.norm(quat)
+        if self._shown_head is None or abs(float(quat @ self._shown_head)) < HEAD_POKE_COS:
+            self._shown_head = quat         # the head turned: show it now, not at the next tick
+            self.clock.poke()
 
     def on_odom(self, msg: Odometry) -> None:
         try:
@@ -340,6 +352,8 @@ class SpvNode(SpvReconfiguration, RaspvNode):
         self.view.add_frame(DisplayFrame(inputs.stamp, inputs, levels, map_id, sim))
         if self.params["headless"]:
             self._headless_tick(inputs.stamp)
+        else:
+            self.clock.poke()
 
     def _headless_tick(self, stamp: float) -> None:
         """Publish the frame of input time ``stamp`` [s], the temporal model advancing by the
@@ -449,20 +463,18 @@ class SpvNode(SpvReconfiguration, RaspvNode):
         self._tick_ms.append(1e3 * (time.monotonic() - t0))
 
     def _display_loop(self) -> None:
-        """Call :meth:`tick` every 1/rate s on absolute deadlines; after a stall it resumes from
-        now (the frames missed are counted as dropped by ``tick``)."""
+        """Call :meth:`tick` every 1/rate s on absolute deadlines, and at once on new content
+        when the display follows its input (:mod:`raspv_spv.display_clock`); after a stall it
+        resumes from now (the frames missed are counted as dropped by ``tick``)."""
         raise_thread_priority()           # where allowed (raspv_common/thread_priority.py)
-        deadline = time.monotonic()
-        while not self._stop_display.is_set():
-            period = 1.0 / self.params["rate"]
-            deadline += period
-            delay = deadline - time.monotonic()
-            if delay > 0:
-                if self._stop_display.wait(delay):
-                    return
-            elif delay < -period:
-                deadline = time.monotonic()
+        while self.clock.wait(1.0 / self.params["rate"], self._follows_input()):
             self.tick()
+
+    def _follows_input(self) -> bool:
+        """New content is shown at once: ``display_on_input`` with the temporal model off (its
+        frame rate is the display rate) and no simulated device latency (frames wait for it)."""
+        p = self.params
+        return bool(p["display_on_input"]) and not p["temporal"] and p["device_latency_ms"] == 0
 
     def report(self) -> None:
         """Every 10 s: warn about dropped display frames."""
@@ -494,6 +506,7 @@ class SpvNode(SpvReconfiguration, RaspvNode):
     def close(self) -> None:
         self._builder.close()
         self._stop_display.set()
+        self.clock.stop()
         if self._display_thread.is_alive():
             self._display_thread.join(timeout=2.0)
         # rclpy's context may already be shut down here: report with print, not the ROS logger
@@ -507,7 +520,7 @@ def main(argv=None) -> None:
     # The display thread must get the GIL promptly when its deadline comes: Python's default
     # 5 ms switch interval is a quarter of a 50 Hz frame.
     sys.setswitchinterval(0.0005)
-    run_node(SpvNode, argv)
+    run_node(SpvNode, argv, headset_path=True)
 
 
 if __name__ == "__main__":

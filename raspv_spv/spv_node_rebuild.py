@@ -7,13 +7,12 @@ then swapped in between two display ticks.
 """
 from __future__ import annotations
 
-import os
-import threading
 from dataclasses import dataclass
 
 import numpy as np
 from rclpy.parameter import Parameter
 
+from raspv_common.thread_priority import lower_thread_priority
 from raspv_spv import display_budget
 from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
@@ -165,10 +164,7 @@ class SpvReconfiguration:
         the node started with cannot keep its display rate."""
         if self._stop_display.wait(STARTUP_RATE_CHECK_S):
             return
-        try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)   # this thread only (Linux)
-        except (AttributeError, OSError):
-            pass
+        lower_thread_priority(19)                   # this thread only (Linux)
         verdict = self.display_rate_verdict(dict(self.params))
         if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
             self.get_logger().warning(verdict.message)

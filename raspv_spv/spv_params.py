@@ -47,6 +47,8 @@ PARAMS = [
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("reprojection", True, "re-sample the last camera frame for the newest head orientation at every display tick "
           "(needs /head/orientation to turn the camera: sim, head-mounted camera; off for recordings)"),
+    Param("display_on_input", True, "with the temporal model off, show a head turn or a new camera frame at once "
+          "instead of at the next display tick (at most 2 x rate frames/s); with it on, frames keep the model's rate"),
     Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
           "(0: as soon as the graph can)", minimum=0.0, maximum=1000.0, unit="ms"),
     Param("stale_inputs", True, "notice inputs that stop (camera, scene, path, stairs, segmentation) and show a "
