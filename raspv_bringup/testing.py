@@ -70,6 +70,33 @@ class RunningGraph:
             self._log.flush()
         return self.log_path.read_text(errors="replace")
 
+    def cpu_by_kind(self) -> dict[str, tuple[int, float]]:
+        """{node kind: (pid, CPU seconds so far)} of the graph's node processes."""
+        from raspv_bringup.registry import NODES
+
+        module_kind = {spec.module: kind for kind, spec in NODES.items()}
+        out = {}
+        try:
+            children = psutil.Process(self.proc.pid).children(recursive=True)
+        except psutil.Error:
+            return out
+        for p in children:
+            try:
+                cmd = p.cmdline()
+                t = p.cpu_times()
+            except psutil.Error:
+                continue
+            kinds = [module_kind[a] for a in cmd if a in module_kind]   # python -m [node_entry] MODULE
+            if kinds:
+                out[kinds[0]] = (p.pid, t.user + t.system)
+        return out
+
+    @staticmethod
+    def cpu_share(before: dict[str, tuple[int, float]], after: dict[str, tuple[int, float]], wall_s: float) -> str:
+        """"kind N %, …": each node's CPU between two :meth:`cpu_by_kind` calls, in % of one core."""
+        return ", ".join(f"{kind} {100 * (t1 - before[kind][1]) / wall_s:.0f} %" for kind, (pid, t1) in sorted(after.items())
+                         if kind in before and before[kind][0] == pid)
+
     def _remember_children(self) -> None:
         try:
             self._children |= {c.pid for c in psutil.Process(self.proc.pid).children(recursive=True)}

@@ -33,10 +33,13 @@ BASELINE_M = (0.025, 0.0, 0.0)
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=150, help="frames in the recordings (default 150, 5 s at 30 Hz)")
+    parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the recordings (default 30)")
     parser.add_argument("--seconds", type=float, default=12.0, help="part 2 measuring time per graph [s] (default 12)")
     parser.add_argument("--no-graph", action="store_true", help="skip part 2")
     parser.add_argument("--no-peer", action="store_true", help="part 2: skip the replay-node peer")
     parser.add_argument("--keep", metavar="DIR", help="write the recordings here and keep them")
+    parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM:=VALUE",
+                        help="part 2: parameter override (repeatable), e.g. spv.temporal:=false")
 
 
 def _stats(v: list[float]) -> str:
@@ -64,7 +67,7 @@ def tum_drift_frames(n: int, rate: float = 30.0):
         yield c, d, K, 100.0 + i / rate
 
 
-def make_recordings(folder: Path, n: int) -> dict[str, Path]:
+def make_recordings(folder: Path, n: int, fps: float = 30.0) -> dict[str, Path]:
     """The RealSense (.db3), DepthAI (directory) and OpenNI2 (.oni) recordings and a RASPV bag."""
     from raspv_bags.from_frames import RgbdBagWriter
     from raspv_camera.rgbd_frame import CameraError
@@ -73,11 +76,11 @@ def make_recordings(folder: Path, n: int) -> dict[str, Path]:
     from raspv_common.intrinsics import CameraIntrinsics
 
     depth_cam = CameraIntrinsics(640, 480, 400.0, 400.0, 320.5, 238.5)
-    frames = list(tum_drift_frames(n))
+    frames = list(tum_drift_frames(n, fps))
     K = frames[0][2]
     rs_frames = (SourceFrame(c, np.nan_to_num(depth_seen_from(d, K, depth_cam, BASELINE_M) * 1000).astype(np.uint16), t)
                  for c, d, _, t in frames)
-    out = {"realsense": write_realsense_recording(folder / "tum.db3", rs_frames, K, depth_cam,
+    out = {"realsense": write_realsense_recording(folder / "tum.db3", rs_frames, K, depth_cam, fps=int(round(fps)),
                                                   depth_to_color_m=BASELINE_M)}
     mm = (SourceFrame(c, np.nan_to_num(d * 1000).astype(np.uint16), t) for c, d, _, t in frames)
     for sdk, write in (("depthai", lambda: write_depthai_recording(folder / "tum_depthai", mm, K)),
@@ -173,13 +176,17 @@ def part1(recordings: dict[str, Path]) -> dict:
     return results
 
 
-def _graph_latency(source: dict, seconds: float, workdir: Path) -> tuple[list[float], str]:
+def _graph_latency(source: dict, seconds: float, workdir: Path,
+                   overrides: list[str] = ()) -> tuple[dict[str, list[float]], str]:
     """For the camera graph with ``source`` as its RGB-D source node: per camera frame, the time
     from its camera info reaching a subscriber here to the first ``/spv/frame`` built from it
-    (``source_stamp`` = the frame's stamp) reaching it [ms]. Arrival times on one clock, so a
-    recording's own stamps (the replay node keeps them) do not matter."""
+    (``source_stamp`` = the frame's stamp) reaching it [ms] (key "phosphenes"), and to the scene
+    structure and the odometry pose of that frame ("scene", "pose"). Arrival times on one
+    clock, so a recording's own stamps (the replay node keeps them) do not matter."""
     import yaml
+    from geometry_msgs.msg import PoseStamped
     from raspv_msgs.msg import PhospheneFrame
+    from raspv_msgs.msg import SceneStructure as SceneStructureMsg
     from sensor_msgs.msg import CameraInfo
 
     from raspv_bringup.graph import CONFIG_DIR
@@ -192,28 +199,44 @@ def _graph_latency(source: dict, seconds: float, workdir: Path) -> tuple[list[fl
     spec.pop("camera", None)
     spec.update(source["params"])
     spec.setdefault("bridge", {"ros__parameters": {}})["ros__parameters"].update({"port": 0, "tcp_port": -1})
-    graph = RunningGraph(spec, workdir)
+    graph = RunningGraph(spec, workdir, list(overrides))
     probe = Probe("camera_bench")
     try:
         frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
         infos = probe.subscribe(topics.CAMERA_INFO, CameraInfo)
+        scenes = probe.subscribe(topics.SCENE_STRUCTURE, SceneStructureMsg)
+        poses = probe.subscribe(topics.CAMERA_POSE, PoseStamped)
+        outputs = {"phosphenes": (frames, lambda m: m.source_stamp), "scene": (scenes, lambda m: m.header.stamp),
+                   "pose": (poses, lambda m: m.header.stamp)}
         frames.wait(1, timeout=120, predicate=lambda m: stamp_to_seconds(m.source_stamp) > 0)
-        with frames._cond, infos._cond:
-            frames.messages.clear(), frames.stamps.clear(), infos.messages.clear(), infos.stamps.clear()
+        collectors = [infos] + [c for c, _ in outputs.values()]
+        for c in collectors:
+            with c._cond:
+                c.messages.clear(), c.stamps.clear()
+        cpu0, t0 = graph.cpu_by_kind(), time.monotonic()
         time.sleep(seconds)
-        with frames._cond, infos._cond:
-            events = sorted([(t, 0, stamp_to_seconds(m.header.stamp)) for m, t in zip(infos.messages, infos.stamps)]
-                            + [(t, 1, stamp_to_seconds(m.source_stamp)) for m, t in zip(frames.messages, frames.stamps)])
-        # in arrival order: a frame's latency is from its (latest) arrival to the first phosphene
-        # frame built from it (a looping bag repeats its stamps: each pass counts anew)
-        waiting: dict[float, float] = {}
-        lat = []
-        for t, kind, stamp in events:
-            if kind == 0:
-                waiting[stamp] = t
-            elif stamp in waiting:
-                lat.append(1e3 * (t - waiting.pop(stamp)))
-        return lat, graph.output
+        cpu = RunningGraph.cpu_share(cpu0, graph.cpu_by_kind(), time.monotonic() - t0)
+        snapshot = {}
+        for name, c in [("info", infos)] + [(n, c) for n, (c, _) in outputs.items()]:
+            with c._cond:
+                snapshot[name] = list(zip(c.messages, c.stamps))
+        result = {}
+        for name, (_, stamp_of) in outputs.items():
+            events = sorted([(t, 0, stamp_to_seconds(m.header.stamp)) for m, t in snapshot["info"]]
+                            + [(t, 1, stamp_to_seconds(stamp_of(m))) for m, t in snapshot[name]])
+            # in arrival order: a frame's latency is from its (latest) arrival to the first
+            # output built from it (a looping bag repeats its stamps: each pass counts anew)
+            waiting: dict[float, float] = {}
+            lat = []
+            for t, kind, stamp in events:
+                if kind == 0:
+                    waiting[stamp] = t
+                elif stamp in waiting:
+                    lat.append(1e3 * (t - waiting.pop(stamp)))
+            result[name] = lat
+        result["camera frames"] = [float(len(snapshot["info"]))]
+        result["scene core"] = [float(m.processing_ms) for m, _ in snapshot["scene"]]
+        return result, graph.output + f"\nCPU (of one core): {cpu}"
     finally:
         probe.close()
         graph.stop()
@@ -223,7 +246,8 @@ def part2(recordings: dict[str, Path], args, workdir: Path) -> None:
     from raspv_bringup.testing import claim_private_domain
 
     claim_private_domain()
-    print(f"part 2: camera graph (config/camera.yaml), chess_floor on the optimist preset, {args.seconds:g} s each")
+    print(f"part 2: camera graph (config/camera.yaml), chess_floor on the optimist preset, {args.seconds:g} s each"
+          + (f" [{' '.join(args.set)}]" if args.set else ""))
     cases = [("camera node, RealSense .db3", {"entry": {"kind": "camera"},
                                               "params": {"camera": {"ros__parameters": {"file": str(recordings["realsense"])}}}})]
     if not args.no_peer:
@@ -231,12 +255,18 @@ def part2(recordings: dict[str, Path], args, workdir: Path) -> None:
             "bag": str(recordings["bag"]), "loop": True,
             "exclude_topics": ["/camera/pose", "/spv/image", "/spv/frame", "/spv/map", "/scene/structure"]}}}}))
     for name, source in cases:
-        lat, log = _graph_latency(source, args.seconds, workdir)
+        result, log = _graph_latency(source, args.seconds, workdir, args.set)
+        lat = result["phosphenes"]
         verdict = ""
         if lat:
             p95 = float(np.percentile(lat, 95))
             verdict = f"  ({'meets' if p95 <= E2E_TARGET_MS else 'misses'} p95 <= {E2E_TARGET_MS:g} ms)"
-        print(f"  {name:30s} {len(lat):4d} camera frames → phosphenes: {_stats(lat)} ms{verdict}")
+        sent = int(result["camera frames"][0])
+        print(f"  {name:30s} {len(lat):4d} of {sent} camera frames → phosphenes: {_stats(lat)} ms{verdict}")
+        for stage, what in (("scene", "scene structure"), ("pose", "odometry pose")):
+            print(f"  {'':30s} {len(result[stage]):4d} of {sent} camera frames → {what}: {_stats(result[stage])} ms")
+        print(f"  {'':30s} scene perception's own time per frame in the graph: {_stats(result['scene core'])} ms")
+        print(f"  {'':30s} {log.splitlines()[-1]}")
         if not lat:
             print("    no phosphene frame came from a camera frame; graph output:\n" + log[-2000:])
 
@@ -247,7 +277,7 @@ def run(args: argparse.Namespace) -> int:
         folder = Path(args.keep) if args.keep else Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
         t0 = time.monotonic()
-        recordings = make_recordings(folder, args.frames)
+        recordings = make_recordings(folder, args.frames, args.fps)
         print(f"recordings written by the SDKs in {time.monotonic() - t0:.1f} s: "
               + ", ".join(f"{k} {v.name}" for k, v in recordings.items()))
         part1(recordings)

@@ -115,6 +115,21 @@ class PoseBuffer:
         t0, t1 = self._stamps[i - 1], self._stamps[i]
         return interpolate_pose(self._poses[i - 1], self._poses[i], (stamp - t0) / (t1 - t0))
 
+    def predict(self, stamp: float, max_ahead_s: float) -> np.ndarray | None:
+        """The pose at ``stamp``: looked up inside the span; after the newest sample, continued
+        at the velocity between the two newest samples (constant linear and angular velocity,
+        at most ``max_ahead_s`` ahead; beyond that the pose there is held); None when empty.
+        For data that comes before its pose (images ahead of a lagging odometry)."""
+        n = len(self._stamps)
+        if n == 0:
+            return None
+        last = self._stamps[-1]
+        if stamp <= last or n < 2:
+            return self.lookup_or_none(stamp) if stamp <= last else self._poses[-1].copy()
+        t0 = self._stamps[-2]
+        ahead = min(stamp, last + max_ahead_s)
+        return interpolate_pose(self._poses[-2], self._poses[-1], (ahead - t0) / (last - t0))
+
     def lookup_or_none(self, stamp: float) -> np.ndarray | None:
         try:
             return self.lookup(stamp)

@@ -22,6 +22,7 @@ import threading
 from contextlib import contextmanager
 
 HEADSET_NICE = -10           # display thread and headset server thread
+BACKGROUND_NICE = 5          # work the phosphenes do not wait for (RGB-D odometry)
 HEADSET_RT_PRIORITY = 10     # of 1..99; above nothing else the graph runs
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
 

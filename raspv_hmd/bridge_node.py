@@ -240,7 +240,7 @@ class BridgeNode(RaspvNode):
 
 
 def main(argv: list[str] | None = None) -> None:
-    run_node(BridgeNode, argv, headset_path=True)
+    run_node(BridgeNode, argv, priority="headset")
 
 
 if __name__ == "__main__":

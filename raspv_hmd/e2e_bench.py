@@ -246,30 +246,6 @@ def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph
     return onset, half
 
 
-def _cpu_by_kind(launcher_pid: int) -> dict[str, tuple[int, float]]:
-    """{node kind: (pid, CPU seconds so far)} of a running graph's node processes."""
-    import psutil
-
-    from raspv_bringup.registry import NODES
-
-    module_kind = {spec.module: kind for kind, spec in NODES.items()}
-    out = {}
-    try:
-        children = psutil.Process(launcher_pid).children(recursive=True)
-    except psutil.Error:
-        return out
-    for p in children:
-        try:
-            cmd = p.cmdline()
-            t = p.cpu_times()
-        except psutil.Error:
-            continue
-        for i, a in enumerate(cmd[:-1]):
-            if a == "-m" and cmd[i + 1] in module_kind:
-                out[module_kind[cmd[i + 1]]] = (p.pid, t.user + t.system)
-    return out
-
-
 def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) -> list[str]:
     from raspv_bringup.testing import Probe, RunningGraph
     from raspv_hmd.motion_latency import analyse_steps
@@ -288,7 +264,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
             if time.monotonic() > deadline or not g.running():
                 raise RuntimeError(f"no lit phosphene frame within 120 s:\n{g.output[-2000:]}")
             time.sleep(0.2)
-        cpu0 = _cpu_by_kind(g.proc.pid)
+        cpu0 = g.cpu_by_kind()
         t0 = time.monotonic()
         out = workdir / "steps.npz"
         cmd = [sys.executable, "-m", "raspv_hmd.motion_latency", url, str(out), "--steps", str(args.steps),
@@ -297,7 +273,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=duration + 60)
         if done.returncode != 0:
             raise RuntimeError(f"step client failed: {done.stderr.strip()[-800:]}")
-        cpu1, wall = _cpu_by_kind(g.proc.pid), time.monotonic() - t0
+        cpu1, wall = g.cpu_by_kind(), time.monotonic() - t0
     finally:
         probe_node = probe
         probe_node.close()
@@ -322,12 +298,9 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     if spv:
         n, d = int(spv.group(1)), int(spv.group(2))
         print(f"  spv display: {n} frames, {d} dropped ({100 * d / max(1, n + d):.2f} %), tick median {spv.group(3)} ms")
-    loads = []
-    for kind, (pid, t1) in sorted(cpu1.items()):
-        if kind in cpu0 and cpu0[kind][0] == pid:
-            loads.append(f"{kind} {100 * (t1 - cpu0[kind][1]) / wall:.0f} %")
+    loads = RunningGraph.cpu_share(cpu0, cpu1, wall)
     if loads:
-        print(f"  CPU while stepping (of one core): {', '.join(loads)}")
+        print(f"  CPU while stepping (of one core): {loads}")
     print("  breakdown by stage (stamps carried by the messages):")
     for name, values in breakdown(log, results, list(step_times), list(step_yaws), args.amplitude).items():
         print(f"    {name:52s} [ms] {_stats(values)}")

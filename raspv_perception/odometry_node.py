@@ -1,6 +1,8 @@
 """`odometry` node: RGB-D odometry → /camera/pose (W ← camera optical) for sources without a pose.
 
-Colour and depth are paired by stamp and registered frame to frame (``rgbd_odometry``). The
+Colour and depth are paired by stamp and registered frame to frame (``rgbd_odometry``), at
+most ``max_rate`` frames per second by their stamps (the phosphenes do not wait for the poses:
+the spv node predicts them; the node also runs at a lower priority, ``run_node``). The
 world frame W is the first camera frame made gravity-aligned by the first floor the `scene`
 node reports (z up, z = 0 on the floor, x along the first view direction); poses are published
 from then on. Without a floor within ``anchor_timeout`` seconds (or with
@@ -26,18 +28,22 @@ from raspv_perception.odometry_params import PARAMS
 from raspv_perception.rgbd_odometry import OdometryConfig, RGBDOdometry
 
 
+FRAME_SLACK_NS = 5_000_000      # stamps jitter: a frame this much early still counts as due [ns]
+
+
 class OdometryNode(RaspvNode):
     def __init__(self) -> None:
         super().__init__("odometry", PARAMS)
         p = self.params
         try:
             self.odometry = RGBDOdometry(OdometryConfig(scale=p["scale"], max_depth=p["max_depth"],
-                                                        min_overlap=p["min_overlap"]))
+                                                        min_overlap=p["min_overlap"], threads=p["threads"]))
         except ValueError as exc:
             raise ConfigurationError(str(exc)) from None
         self.pending: OrderedDict[int, dict] = OrderedDict()     # stamp [ns] → {"color": msg, "depth": msg}
         self.history: OrderedDict[int, np.ndarray] = OrderedDict()  # stamp [ns] → C0 ← C
         self.started: float | None = None
+        self.last_key: int | None = None            # stamp [ns] of the last frame registered
         self.publishing = not p["gravity_from_floor"]
         self.pub_pose = self.create_publisher(PoseStamped, topics.CAMERA_POSE, SENSOR_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
@@ -67,6 +73,10 @@ class OdometryNode(RaspvNode):
         if self.intrinsics is None:
             self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
             return
+        rate = self.params["max_rate"]
+        if rate > 0 and self.last_key is not None and 0 <= key - self.last_key < 1e9 / rate - FRAME_SLACK_NS:
+            return                                   # too soon after the last registered frame
+        self.last_key = key
         try:
             rgb = rgb_from_image(color_msg)
             depth = depth_from_image(depth_msg)

@@ -58,6 +58,7 @@ OPTICAL_IN_HEAD = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
 
 MAX_BASE_EXTRAPOLATION_S = 0.25   # the base's yaw is predicted from its rate at most this far [s]
 STAMP_TOLERANCE_S = 0.002         # a pose this close to a frame's stamp is the frame's pose [s]
+MAX_POSE_PREDICTION_S = 0.2       # a camera pose is predicted at most this far past the newest [s]
 MIN_TURN_DEG = 0.05               # smaller turns show the frame as captured (≪ a camera pixel)
 HISTORY_S = 3.0                   # poses kept [s]
 
@@ -111,6 +112,12 @@ class ViewTracker:
         """W ← C at ``stamp`` (interpolated; None when no pose within the tolerance)."""
         with self._lock:
             return self.camera.lookup_or_none(stamp)
+
+    def camera_pose_predicted(self, stamp: float, max_ahead_s: float = MAX_POSE_PREDICTION_S) -> np.ndarray | None:
+        """W ← C at ``stamp``, continued past the newest pose at its velocity (a frame that
+        arrived before its pose); None without poses."""
+        with self._lock:
+            return self.camera.predict(stamp, max_ahead_s)
 
     def newest_camera_pose_stamp(self) -> float | None:
         with self._lock:
@@ -184,6 +191,9 @@ class FrameHistory:
         with self._lock:
             if self._frames and frame.stamp < self._frames[-1].stamp - 1.0:
                 self._frames.clear()
+            if self._frames and frame.stamp == self._frames[-1].stamp:
+                self._frames[-1] = frame          # the same frame again, recomputed (its pose came)
+                return
             self._frames.append(frame)
             horizon = frame.stamp - latency_s - self.keep_s
             while len(self._frames) > 1 and self._frames[1].stamp <= horizon:

@@ -5,7 +5,9 @@ camera pose, scene structure and labels (from the `scene` node); with ``reprojec
 ``/head/orientation``, ``/odom`` and ``/camera/pose``. Every new frame of the mode's main input
 (colour, else depth; for scene modes the scene node's outputs) is turned into levels by the
 :class:`~raspv_spv.simulator.PhospheneSimulator` with the camera pose *at the frame's stamp*
-(a frame waits for its pose when the mode uses one and poses are coming).
+(when poses come later than the images, as from RGB-D odometry, a frame is shown at once with
+the pose predicted at its stamp and recomputed when its own pose comes; ``predict_pose`` off:
+it waits for its pose).
 A display loop at ``rate`` Hz (50 by default, the temporal model's frame rate) picks the frame
 to show (:class:`~raspv_spv.reprojection.DisplayView`: the newest, or the one captured
 ``device_latency_ms`` ago), re-samples it for the newest head orientation (display-time
@@ -30,6 +32,7 @@ blinking no-data ring (:mod:`raspv_spv.no_data`); ``/spv/status`` says what is s
 from __future__ import annotations
 
 import array
+import dataclasses
 import json
 import statistics
 import sys
@@ -100,6 +103,7 @@ class SpvNode(SpvReconfiguration, RaspvNode):
         # frames with their levels, poses, and what the display shows (reprojection, device latency)
         self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"])
         self._pending: FrameInputs | None = None        # a frame waiting for its camera pose
+        self._pending_shown = False                     # … already shown with a predicted pose
         # stale inputs (raspv_spv.staleness): what the display shows instead
         self.staleness = staleness.StalenessMonitor()
         self._plan_lock = threading.Lock()
@@ -198,8 +202,13 @@ class SpvNode(SpvReconfiguration, RaspvNode):
             self.warn_throttled("pose", f"ignoring camera pose: {exc}")
             return
         self.pose = pose
-        if self._pending is not None and stamp >= self._pending.stamp - POSE_TOLERANCE_S:
-            self._finish_frame(self._pending)
+        pending = self._pending
+        if pending is not None and stamp >= pending.stamp - POSE_TOLERANCE_S:
+            newest = self.view.newest_frame()
+            if self._pending_shown and (newest is None or newest.stamp != pending.stamp):
+                self._pending = None                # a newer frame is already shown: nothing to correct
+            else:
+                self._finish_frame(pending)         # with its own pose (again, if shown with a predicted one)
 
     def on_head(self, msg: QuaternionStamped) -> None:
         q = msg.quaternion
@@ -317,23 +326,35 @@ class SpvNode(SpvReconfiguration, RaspvNode):
                              scene=of_this_frame("scene", self.scene),
                              scene_labels=of_this_frame("scene_labels", self.scene_labels), extras=dict(self.extras))
         if self._pending is not None:               # its pose never came: it goes with the pose there is
-            self._finish_frame(self._pending)
+            if not self._pending_shown:
+                self._finish_frame(self._pending)
+            self._pending = None
         newest_pose = self.view.tracker.newest_camera_pose_stamp()
         if ("camera_pose" in sim.needs | sim.optional_inputs and newest_pose is not None
                 and newest_pose < inputs.stamp - POSE_TOLERANCE_S):
-            self._pending = inputs                  # poses come: wait for this frame's (on_pose)
+            # poses come, later than the images (RGB-D odometry): shown now with the pose
+            # predicted at its stamp and recomputed when its own comes (on_pose), or waiting for it
+            if self.params["predict_pose"] and not self.params["headless"]:
+                pristine = dataclasses.replace(inputs, extras=dict(inputs.extras), cache={})
+                self._finish_frame(inputs, predicted=True)
+                self._pending, self._pending_shown = pristine, True
+            else:
+                self._pending, self._pending_shown = inputs, False
             return
         self._finish_frame(inputs)
 
-    def _finish_frame(self, inputs: FrameInputs) -> None:
-        """Levels of a complete frame, with the camera pose at its stamp, handed to the display."""
+    def _finish_frame(self, inputs: FrameInputs, predicted: bool = False) -> None:
+        """Levels of a complete frame, with the camera pose at its stamp (``predicted``: continued
+        past the newest pose at its velocity), handed to the display."""
         self._pending = None
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
         plan, shown, _ = self._shown_for(sim, time.monotonic())
         if shown is not None:
             sim = shown
-        inputs.camera_pose = self.view.tracker.camera_pose_at(inputs.stamp)
+        tracker = self.view.tracker
+        inputs.camera_pose = (tracker.camera_pose_predicted(inputs.stamp) if predicted
+                              else tracker.camera_pose_at(inputs.stamp))
         if inputs.camera_pose is None:
             inputs.camera_pose = self.pose          # a source whose poses are not stamped like its images
         elif inputs.extras.get("stairs") and abs(self.stamps["stairs"] - inputs.stamp) > POSE_TOLERANCE_S:
@@ -520,7 +541,7 @@ def main(argv=None) -> None:
     # The display thread must get the GIL promptly when its deadline comes: Python's default
     # 5 ms switch interval is a quarter of a 50 Hz frame.
     sys.setswitchinterval(0.0005)
-    run_node(SpvNode, argv, headset_path=True)
+    run_node(SpvNode, argv, priority="headset")
 
 
 if __name__ == "__main__":

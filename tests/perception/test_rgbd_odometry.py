@@ -51,7 +51,10 @@ def test_walk_is_chained_with_little_drift(room):
         assert step.tracked
     truth = np.linalg.inv(T0) @ room.pose_at(1.0)
     dt, dr = motion_error(truth, odo.c0_from_camera)
-    assert dt < 0.03 and dr < 1.0           # < 8 % of the 0.4 m and 14° walked (the walls have no texture)
+    # < 8 % of the 0.4 m and 14° walked (the walls have no texture, so only depth registers). The
+    # rotation bound was 1.0° for the legacy Open3D odometry (0.9°); the tensor one with robust
+    # depth weights, which holds a walk among moving people 2.5x better, gives 1.1°.
+    assert dt < 0.03 and dr < 1.5
 
 
 def test_real_kinect_frames_are_consistent(kinect_frames):
