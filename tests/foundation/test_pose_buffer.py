@@ -70,3 +70,23 @@ def test_same_stamp_replaces_and_bad_poses_are_refused():
         buf.add(1.5, np.full((4, 4), np.nan))
     with pytest.raises(ValueError):
         buf.add(math.inf, pose(0))
+
+
+def test_prediction_continues_the_newest_motion_and_is_bounded():
+    buf = PoseBuffer()
+    assert buf.predict(1.0, 0.2) is None
+    a = np.eye(4)
+    b = np.eye(4)
+    b[:3, :3] = Rotation.from_euler("z", 10, degrees=True).as_matrix()
+    b[:3, 3] = (0.1, 0.0, 0.0)
+    buf.add(1.0, a)
+    np.testing.assert_allclose(buf.predict(1.5, 0.2), a)          # one sample: held
+    buf.add(1.1, b)
+    # inside the span it is the lookup; past it, 10°/0.1 s and 1 m/s go on
+    np.testing.assert_allclose(buf.predict(1.05, 0.2), buf.lookup(1.05))
+    p = buf.predict(1.15, 0.2)
+    assert Rotation.from_matrix(p[:3, :3]).as_euler("zyx", degrees=True)[0] == pytest.approx(15.0, abs=1e-6)
+    np.testing.assert_allclose(p[:3, 3], (0.15, 0.0, 0.0), atol=1e-9)
+    # at most max_ahead_s past the newest sample
+    far = buf.predict(5.0, 0.2)
+    assert Rotation.from_matrix(far[:3, :3]).as_euler("zyx", degrees=True)[0] == pytest.approx(30.0, abs=1e-6)

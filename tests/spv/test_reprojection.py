@@ -183,6 +183,14 @@ def test_frame_history_gives_the_frame_captured_latency_ago():
     assert len(h) == 1 and h.pick(0.2).stamp == 0.2
 
 
+def test_a_frame_recomputed_with_its_own_pose_replaces_the_shown_one():
+    h = FrameHistory(keep_s=0.5)
+    h.add(frame_at(1.0))
+    h.add(frame_at(1.05, levels=np.full(3, 7, np.uint8)))       # shown with a predicted pose
+    h.add(frame_at(1.05, levels=np.full(3, 9, np.uint8)))       # again once its pose came
+    assert len(h) == 2 and h.newest().levels[0] == 9
+
+
 def test_frame_history_forgets_what_no_display_needs():
     h = FrameHistory(keep_s=0.5)
     for k in range(200):

@@ -119,3 +119,43 @@ def test_display_turns_the_last_frame_with_the_head_and_waits_the_device_latency
     shown_between = [f for f in frames.messages if t1 < stamp_to_seconds(f.header.stamp) < t1 + 0.28]
     sources = [round(stamp_to_seconds(f.source_stamp) - t0, 3) for f in shown_between]
     assert shown_between and all(abs(s) < 1e-6 for s in sources), (sources, round(t1 - t0, 3))
+
+
+def _first_frame(src, frames, of):
+    for _ in range(60):            # the first frame may overtake the camera info: send until one is shown
+        t0 = src.frame()
+        try:
+            return t0, np.array(frames.wait(1, timeout=1.0, predicate=of(t0))[0].levels)
+        except TimeoutError:
+            continue
+    pytest.fail("the spv node never showed a frame")
+
+
+@pytest.mark.parametrize("follow", [True, False])
+def test_with_the_temporal_model_off_a_head_turn_is_shown_at_once_not_at_the_next_tick(graph, probe, follow):
+    # a 1 Hz display: waiting for the tick would take up to a second
+    graph({"launch": {"nodes": [{"kind": "spv"}]},
+           "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
+                                       "rate": 1.0, "stale_inputs": False, "display_on_input": follow}}})
+    frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
+    src = Source(probe)
+    src.head.publish(head_msg(probe, 0.0))
+
+    def of(stamp):
+        return lambda f: abs(stamp_to_seconds(f.source_stamp) - stamp) < 1e-6 and max(f.levels) > 0
+    t0, still = _first_frame(src, frames, of)
+    delays = []
+    for yaw in (15.0, 0.0, 15.0):
+        # just after a tick: the next regular one is ~1 s away
+        before = len(frames.messages)
+        frames.wait(before + 1, timeout=30)
+        turn = head_msg(probe, yaw)
+        src.head.publish(turn)
+        t_turn = stamp_to_seconds(turn.header.stamp)
+        shown = frames.wait(1, timeout=30, predicate=lambda f: stamp_to_seconds(f.header.stamp) > t_turn)[0]
+        delays.append(stamp_to_seconds(shown.header.stamp) - t_turn)
+    if follow:
+        # at once (at most a quarter period after the previous frame), not up to a second later
+        assert max(delays) < 0.5, delays
+    else:
+        assert max(delays) > 0.5, delays            # the tick it waited for
