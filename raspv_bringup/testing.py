@@ -97,6 +97,27 @@ class RunningGraph:
         return ", ".join(f"{kind} {100 * (t1 - before[kind][1]) / wall_s:.0f} %" for kind, (pid, t1) in sorted(after.items())
                          if kind in before and before[kind][0] == pid)
 
+    @staticmethod
+    def machine_ticks() -> tuple[int, int, int]:
+        """(busy, stolen, total) CPU ticks of the machine so far (/proc/stat; zeros elsewhere):
+        stolen time is the hypervisor running other guests, which no priority here can help."""
+        try:
+            fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+        except (OSError, ValueError):
+            return 0, 0, 0
+        idle = fields[3] + fields[4]
+        steal = fields[7] if len(fields) > 7 else 0
+        return sum(fields[:8]) - idle - steal, steal, sum(fields[:8])
+
+    @staticmethod
+    def machine_share(before: tuple[int, int, int], after: tuple[int, int, int]) -> str:
+        """"machine busy N %, stolen M %" between two :meth:`machine_ticks` calls."""
+        total = after[2] - before[2]
+        if total <= 0:
+            return "machine load unknown"
+        return (f"machine busy {100 * (after[0] - before[0]) / total:.0f} %, "
+                f"stolen by the hypervisor {100 * (after[1] - before[1]) / total:.1f} %")
+
     def _remember_children(self) -> None:
         try:
             self._children |= {c.pid for c in psutil.Process(self.proc.pid).children(recursive=True)}

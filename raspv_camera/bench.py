@@ -213,9 +213,10 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         for c in collectors:
             with c._cond:
                 c.messages.clear(), c.stamps.clear()
-        cpu0, t0 = graph.cpu_by_kind(), time.monotonic()
+        cpu0, t0, ticks0 = graph.cpu_by_kind(), time.monotonic(), graph.machine_ticks()
         time.sleep(seconds)
-        cpu = RunningGraph.cpu_share(cpu0, graph.cpu_by_kind(), time.monotonic() - t0)
+        cpu = (RunningGraph.cpu_share(cpu0, graph.cpu_by_kind(), time.monotonic() - t0) + "; "
+               + RunningGraph.machine_share(ticks0, graph.machine_ticks()))
         snapshot = {}
         for name, c in [("info", infos)] + [(n, c) for n, (c, _) in outputs.items()]:
             with c._cond:

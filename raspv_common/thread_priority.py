@@ -23,16 +23,20 @@ from contextlib import contextmanager
 
 HEADSET_NICE = -10           # display thread and headset server thread
 BACKGROUND_NICE = 5          # work the phosphenes do not wait for (RGB-D odometry)
-HEADSET_RT_PRIORITY = 10     # of 1..99; above nothing else the graph runs
+HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv, bridge)
+DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
 
 
-def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False) -> bool:
-    """Give the calling thread real-time round-robin scheduling (``realtime``) or the ``nice``
-    value, when allowed; whether it changed."""
+def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False,
+                          rt_priority: int = HEADSET_RT_PRIORITY) -> bool:
+    """Give the calling thread real-time round-robin scheduling at ``rt_priority``
+    (``realtime``), or the ``nice`` value, when allowed; whether it changed. (Threads of one
+    real-time priority do not preempt each other: a display thread gets a higher one than the
+    input callbacks of its own process.)"""
     if realtime:
         try:
-            os.sched_setscheduler(0, os.SCHED_RR | _RESET_ON_FORK, os.sched_param(HEADSET_RT_PRIORITY))
+            os.sched_setscheduler(0, os.SCHED_RR | _RESET_ON_FORK, os.sched_param(rt_priority))
             return True
         except (AttributeError, OSError):
             pass

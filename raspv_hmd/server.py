@@ -37,7 +37,7 @@ from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
-from raspv_common.thread_priority import raise_thread_priority
+from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_hmd import protocol as P
 from raspv_hmd.control import ControlArbiter, DeadMan
 from raspv_hmd.frame_encoding import OutgoingFrame
@@ -355,7 +355,7 @@ class HeadsetServer:
         self.stop()
 
     def _run(self) -> None:
-        raise_thread_priority()          # frames to the headset before other work (where allowed)
+        raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)   # frames to the headset first (where allowed)
         loop = asyncio.new_event_loop()
         self._loop = loop
         try:

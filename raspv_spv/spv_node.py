@@ -53,7 +53,7 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
-from raspv_common.thread_priority import normal_priority, raise_thread_priority
+from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, normal_priority, raise_thread_priority
 from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
@@ -487,7 +487,7 @@ class SpvNode(SpvReconfiguration, RaspvNode):
         """Call :meth:`tick` every 1/rate s on absolute deadlines, and at once on new content
         when the display follows its input (:mod:`raspv_spv.display_clock`); after a stall it
         resumes from now (the frames missed are counted as dropped by ``tick``)."""
-        raise_thread_priority()           # where allowed (raspv_common/thread_priority.py)
+        raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)   # where allowed (thread_priority.py)
         while self.clock.wait(1.0 / self.params["rate"], self._follows_input()):
             self.tick()
 

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 from rclpy.parameter import Parameter
 
-from raspv_common.thread_priority import lower_thread_priority
 from raspv_spv import display_budget
 from raspv_spv.config import SpvConfig, config_from_node_params
 from raspv_spv.device import DeviceError
@@ -160,11 +159,11 @@ class SpvReconfiguration:
         return display_budget.check_node_params(params, overhead_ms=overhead)
 
     def _check_rate_after_start(self) -> None:
-        """Once, a few seconds after start (low priority thread): warn when the configuration
-        the node started with cannot keep its display rate."""
+        """Once, a few seconds after start: warn when the configuration the node started with
+        cannot keep its display rate. (At the node's own priority: ~0.3 s of measuring at a low
+        one held the GIL while other processes ran, stalling the display thread for 100-300 ms.)"""
         if self._stop_display.wait(STARTUP_RATE_CHECK_S):
             return
-        lower_thread_priority(19)                   # this thread only (Linux)
         verdict = self.display_rate_verdict(dict(self.params))
         if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
             self.get_logger().warning(verdict.message)
