@@ -27,7 +27,7 @@ from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrins
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.params import Param, ParamSchema
 from raspv_common.startup_timing import startup_mark
-from raspv_common.thread_priority import BACKGROUND_NICE, lower_thread_priority, raise_thread_priority
+from raspv_common.thread_priority import raise_thread_priority
 
 
 class ConfigurationError(Exception):
@@ -166,16 +166,13 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error,
     or the node's ``exit_code`` when it shut itself down with one. ``priority``: a node on the
     path from the wearer's head to the phosphenes ("headset": spv, bridge) runs real-time where
-    allowed; one whose output nothing waits for ("background": RGB-D odometry) at nice
-    ``BACKGROUND_NICE``. Set before rclpy starts so that its middleware threads inherit it
+    allowed, set before rclpy starts so that its middleware threads inherit it
     (``raspv_common.thread_priority``)."""
     args = list(sys.argv if argv is None else argv)
     if priority == "headset":
         raise_thread_priority(realtime=True)
-    elif priority == "background":
-        lower_thread_priority(BACKGROUND_NICE)
     elif priority != "normal":
-        raise ValueError(f"priority must be normal, headset or background, got {priority!r}")
+        raise ValueError(f"priority must be normal or headset, got {priority!r}")
     rclpy.init(args=args)
     startup_mark("rclpy initialised")
     node = None

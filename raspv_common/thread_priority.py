@@ -13,7 +13,7 @@ ask for a higher priority, as VR compositors do:
 Both need root or CAP_SYS_NICE (or RLIMIT_RTPRIO / RLIMIT_NICE); without them nothing changes and
 the thread runs as before. Threads created afterwards inherit the class and nice value, so
 background work in such a process lowers itself with :func:`lower_thread_priority`.
-Measured (`raspv bench e2e`, demo graph, quiet 2-core VM) in docs/spv.md#latency.
+Measured (`raspv bench e2e`, demo graph, quiet 2-core VM) in docs/spv.md, "Priorities".
 """
 from __future__ import annotations
 
@@ -21,8 +21,7 @@ import os
 import threading
 from contextlib import contextmanager
 
-HEADSET_NICE = -10           # display thread and headset server thread
-BACKGROUND_NICE = 5          # work the phosphenes do not wait for (RGB-D odometry)
+HEADSET_NICE = -10           # display thread and headset server thread (without real-time permission)
 HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv, bridge)
 DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
