@@ -49,6 +49,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "e.g. sim.rate:=30 or spv.device_latency_ms:=100")
     parser.add_argument("--repeat", type=int, default=1, help="run each configuration this many times (default 1)")
     parser.add_argument("--core-only", action="store_true", help="only part 1 (no graph)")
+    parser.add_argument("--client-priority", choices=("headset", "normal"), default="headset",
+                        help="the step client's scheduling: the headset path's (default; a headset has its own "
+                             "processor) or a normal process sharing the graph's cores")
 
 
 def _stats(values: list[float]) -> str:
@@ -274,8 +277,8 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
         # the step client stands in for the headset, which has a processor of its own: here it
         # shares the graph's cores, so it runs at the headset priority (where allowed) instead
         # of queueing behind the simulator
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=duration + 60,
-                              preexec_fn=lambda: raise_thread_priority(realtime=True))
+        raise_client = (lambda: raise_thread_priority(realtime=True)) if args.client_priority == "headset" else None
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=duration + 60, preexec_fn=raise_client)
         if done.returncode != 0:
             raise RuntimeError(f"step client failed: {done.stderr.strip()[-800:]}")
         cpu1, wall, ticks1 = g.cpu_by_kind(), time.monotonic() - t0, g.machine_ticks()
