@@ -15,7 +15,8 @@ reprojection), advances the temporal model and publishes ``/spv/image`` and ``/s
 whatever the inputs do: it never waits for a camera frame, and ticks it could not run on time
 are counted as dropped frames (the temporal model then advances by the frames that elapsed)
 and reported every 10 s. With the temporal model off (``display_on_input``) a head turn or a
-new frame is shown at once instead of at the next tick (:mod:`raspv_spv.display_clock`).
+new frame is shown at once instead of at the next tick (:mod:`raspv_spv.display_clock`; the loop
+and the tick are in :mod:`raspv_spv.spv_node_display`).
 With ``headless`` there is no display loop: each computed frame is published at once with its
 input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.
 ``/spv/map`` is latched and re-published whenever the map changes. A parameter change is
@@ -53,7 +54,7 @@ from raspv_common.conversions import (ImageEncodingError, depth_from_image, imag
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
-from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, normal_priority, raise_thread_priority
+from raspv_common.thread_priority import normal_priority
 from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
@@ -64,6 +65,7 @@ from raspv_perception.stairs_msg import staircase_from_msg
 from raspv_spv import staleness
 from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.display_clock import DisplayClock
+from raspv_spv.spv_node_display import REPORT_PERIOD_S, SpvDisplay
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -72,12 +74,11 @@ from raspv_spv.simulator import InputError, PhospheneSimulator
 from raspv_spv.spv_node_rebuild import _BUILD_ERRORS, SpvReconfiguration, _reason, _Rebuild, build_simulator
 from raspv_spv.spv_params import PARAMS
 
-REPORT_PERIOD_S = 10.0
 HEAD_POKE_COS = float(np.cos(np.radians(0.1) / 2))  # a head turn of more than 0.1° is shown at once
 VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
 
 
-class SpvNode(SpvReconfiguration, RaspvNode):
+class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
@@ -432,79 +433,6 @@ class SpvNode(SpvReconfiguration, RaspvNode):
             self._plan_logged, self._stale_logged = now, True
             what = ", ".join(self.staleness.describe(n, now) for n in sorted(plan.stale))
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
-
-    # -- display ------------------------------------------------------------------------------
-    def tick(self, frames: int | None = None, stamp: float | None = None) -> None:
-        """One display frame (headless: ``frames`` elapsed, stamped ``stamp`` s)."""
-        if not self.context.ok():                  # shutting down: the publishers are gone
-            return
-        t0 = time.monotonic()
-        if frames is not None:
-            pass
-        elif self._last_tick is None:
-            frames = 1
-        else:
-            period = 1.0 / self.params["rate"]
-            frames = max(1, int(round((t0 - self._last_tick) / period)))
-            self._dropped += frames - 1
-        self._last_tick = t0
-        header = self.header("phosphene", stamp)
-        with self._sim_lock:
-            sim, map_id = self.sim, self.map_id
-            plan, shown_sim, no_data = self._shown_for(sim, t0)
-            if plan.no_data:                        # the camera stopped: the no-data pattern, not its last frame
-                levels, source_stamp = no_data.levels(t0), 0.0
-            else:
-                shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
-                levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
-            brightness = sim.brightness(levels, frames)
-        if stamp is not None:
-            source_stamp = stamp                    # headless: the frame answers this input
-        msg = None
-        if stamp is None or self.pub_image.get_subscription_count():   # headless: only when watched
-            image = sim.render(brightness)
-            msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
-            msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
-            msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
-            msg.data = array.array("B", image.tobytes())
-        frame = PhospheneFrame(header=header, map_id=map_id, mode=plan.mode, overlays=list(plan.overlays),
-                               temporal=sim.temporal is not None)
-        frame.source_stamp = self.header("", source_stamp).stamp
-        frame.levels = array.array("B", levels.tobytes())
-        frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
-        try:
-            if msg is not None:
-                self.pub_image.publish(msg)
-            self.pub_frame.publish(frame)
-        except RCLError:
-            if self.context.ok():
-                raise
-            return                                  # the context ended while this tick ran
-        self._ticks += 1
-        self._tick_ms.append(1e3 * (time.monotonic() - t0))
-
-    def _display_loop(self) -> None:
-        """Call :meth:`tick` every 1/rate s on absolute deadlines, and at once on new content
-        when the display follows its input (:mod:`raspv_spv.display_clock`); after a stall it
-        resumes from now (the frames missed are counted as dropped by ``tick``)."""
-        raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)   # where allowed (thread_priority.py)
-        while self.clock.wait(1.0 / self.params["rate"], self._follows_input()):
-            self.tick()
-
-    def _follows_input(self) -> bool:
-        """New content is shown at once: ``display_on_input`` with the temporal model off (its
-        frame rate is the display rate) and no simulated device latency (frames wait for it)."""
-        p = self.params
-        return bool(p["display_on_input"]) and not p["temporal"] and p["device_latency_ms"] == 0
-
-    def report(self) -> None:
-        """Every 10 s: warn about dropped display frames."""
-        new = self._dropped - self._dropped_reported
-        if new > 0:
-            rate = self.params["rate"]
-            self.get_logger().warning(f"dropped {new} display frames in the last {REPORT_PERIOD_S:.0f} s at {rate:g} Hz "
-                                      f"({self._dropped} since start, {self._ticks} shown)")
-            self._dropped_reported = self._dropped
 
     def publish_map(self) -> None:
         sim, map_id = self.sim, self.map_id

@@ -1,0 +1,95 @@
+"""The spv node's display (ROS side): the loop that shows a frame every 1/rate s, or at once on
+new content when it follows its input (:mod:`raspv_spv.display_clock`), and the tick that
+publishes ``/spv/image`` and ``/spv/frame``. A mixin of :class:`raspv_spv.spv_node.SpvNode`:
+it reads the node's simulator, view, staleness plan, publishers and display statistics.
+"""
+from __future__ import annotations
+
+import array
+import time
+
+import numpy as np
+from rclpy._rclpy_pybind11 import RCLError
+from sensor_msgs.msg import Image
+
+from raspv_common.conversions import stamp_to_seconds
+from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
+from raspv_msgs.msg import PhospheneFrame
+
+REPORT_PERIOD_S = 10.0
+
+
+class SpvDisplay:
+    """Display loop, tick and dropped-frame reports of the spv node."""
+
+    def tick(self, frames: int | None = None, stamp: float | None = None) -> None:
+        """One display frame (headless: ``frames`` elapsed, stamped ``stamp`` s)."""
+        if not self.context.ok():                  # shutting down: the publishers are gone
+            return
+        t0 = time.monotonic()
+        if frames is not None:
+            pass
+        elif self._last_tick is None:
+            frames = 1
+        else:
+            period = 1.0 / self.params["rate"]
+            frames = max(1, int(round((t0 - self._last_tick) / period)))
+            self._dropped += frames - 1
+        self._last_tick = t0
+        header = self.header("phosphene", stamp)
+        with self._sim_lock:
+            sim, map_id = self.sim, self.map_id
+            plan, shown_sim, no_data = self._shown_for(sim, t0)
+            if plan.no_data:                        # the camera stopped: the no-data pattern, not its last frame
+                levels, source_stamp = no_data.levels(t0), 0.0
+            else:
+                shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
+                levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
+            brightness = sim.brightness(levels, frames)
+        if stamp is not None:
+            source_stamp = stamp                    # headless: the frame answers this input
+        msg = None
+        if stamp is None or self.pub_image.get_subscription_count():   # headless: only when watched
+            image = sim.render(brightness)
+            msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
+            msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
+            msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
+            msg.data = array.array("B", image.tobytes())
+        frame = PhospheneFrame(header=header, map_id=map_id, mode=plan.mode, overlays=list(plan.overlays),
+                               temporal=sim.temporal is not None)
+        frame.source_stamp = self.header("", source_stamp).stamp
+        frame.levels = array.array("B", levels.tobytes())
+        frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
+        try:
+            if msg is not None:
+                self.pub_image.publish(msg)
+            self.pub_frame.publish(frame)
+        except RCLError:
+            if self.context.ok():
+                raise
+            return                                  # the context ended while this tick ran
+        self._ticks += 1
+        self._tick_ms.append(1e3 * (time.monotonic() - t0))
+
+    def _display_loop(self) -> None:
+        """Call :meth:`tick` every 1/rate s on absolute deadlines, and at once on new content
+        when the display follows its input (:mod:`raspv_spv.display_clock`); after a stall it
+        resumes from now (the frames missed are counted as dropped by ``tick``)."""
+        raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)   # where allowed (thread_priority.py)
+        while self.clock.wait(1.0 / self.params["rate"], self._follows_input()):
+            self.tick()
+
+    def _follows_input(self) -> bool:
+        """New content is shown at once: ``display_on_input`` with the temporal model off (its
+        frame rate is the display rate) and no simulated device latency (frames wait for it)."""
+        p = self.params
+        return bool(p["display_on_input"]) and not p["temporal"] and p["device_latency_ms"] == 0
+
+    def report(self) -> None:
+        """Every 10 s: warn about dropped display frames."""
+        new = self._dropped - self._dropped_reported
+        if new > 0:
+            rate = self.params["rate"]
+            self.get_logger().warning(f"dropped {new} display frames in the last {REPORT_PERIOD_S:.0f} s at {rate:g} Hz "
+                                      f"({self._dropped} since start, {self._ticks} shown)")
+            self._dropped_reported = self._dropped
