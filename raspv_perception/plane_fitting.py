@@ -91,6 +91,14 @@ def _bin_distance(i: int, j: int, nb: int, circular: bool) -> int:
     return min(d, nb - d) if circular else d
 
 
+def cross3(a, b) -> np.ndarray:
+    """``np.cross`` of two 3-vectors, with the same operations (so the same bits) minus its
+    general-shape overhead (≈15 µs a call)."""
+    a0, a1, a2 = a[0], a[1], a[2]
+    b0, b1, b2 = b[0], b[1], b[2]
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def plane_basis(normal: np.ndarray, forward: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors (e1, e2) spanning the plane ⊥ ``normal``; e2 is ``forward`` (default the
     camera z axis, or y if z is nearly normal) projected on the plane, e1 = e2 × normal."""
@@ -101,7 +109,7 @@ def plane_basis(normal: np.ndarray, forward: np.ndarray | None = None) -> tuple[
         f = np.array([0.0, 1.0, 0.0])
         e2 = f - (f @ n) * n
     e2 /= np.linalg.norm(e2)
-    e1 = np.cross(e2, n)
+    e1 = cross3(e2, n)
     return e1, e2
 
 

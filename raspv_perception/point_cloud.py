@@ -41,7 +41,16 @@ class OrganisedCloud:
         """Per-sample (h, w) values → (H, W) image at the depth resolution (nearest sample)."""
         H, W = self.image_shape
         s = self.stride
-        return values[(np.arange(H) // s)[:, None], (np.arange(W) // s)[None, :]]
+        values = np.asarray(values)
+        h, w = values.shape[:2]
+        if (values.ndim == 2 and values.dtype == np.uint8 and s > 1 and s & (s - 1) == 0
+                and (h * s, w * s) == (H, W)):
+            # Exact: with a power-of-two factor OpenCV's nearest source pixel is x // s.
+            return cv2.resize(values, (W, H), interpolation=cv2.INTER_NEAREST)
+        # Each sample repeated s × s times (the same as indexing rows and columns with
+        # arange(H) // s and arange(W) // s, at a third of the cost).
+        out = np.repeat(np.repeat(values, s, axis=0), s, axis=1)
+        return out if out.shape[:2] == (H, W) else np.ascontiguousarray(out[:H, :W])
 
 
 def as_depth_metres(depth: np.ndarray, intrinsics: CameraIntrinsics) -> np.ndarray:
@@ -164,8 +173,9 @@ def voxel_downsample(points: np.ndarray, size: float) -> VoxelGrid:
     if len(pts) == 0:
         return VoxelGrid(size, np.zeros((0, 3), np.float32), np.zeros(0, np.int64), np.zeros(0, np.int64))
     idx = np.floor(pts / np.float32(size)).astype(np.int64)
-    idx -= idx.min(axis=0)
-    span = idx.max(axis=0) + 1
+    # Per-column extremes: reducing an (N, 3) array along axis 0 is several times slower.
+    idx -= np.array([idx[:, axis].min() for axis in range(3)])
+    span = np.array([idx[:, axis].max() for axis in range(3)]) + 1
     keys = (idx[:, 0] * span[1] + idx[:, 1]) * span[2] + idx[:, 2]
     _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     m = len(counts)

@@ -211,8 +211,8 @@ class ScenePerception:
         centroid = pts.mean(axis=0).astype(np.float64)
         # The hull of the image-space hull's samples: a plane seen by a pinhole camera maps
         # projectively to the image, which keeps convex hulls.
-        ys, xs = np.divmod(idx, S.shape[1])
-        img_hull = cv2.convexHull(np.stack([xs, ys], axis=1).astype(np.int32), returnPoints=False).reshape(-1)
+        ys, xs = np.divmod(idx.astype(np.int32), np.int32(S.shape[1]))
+        img_hull = cv2.convexHull(np.stack([xs, ys], axis=1), returnPoints=False).reshape(-1)
         hull, area = hull_on_plane(pts[img_hull], piece.plane)
         height = (float(structure.floor_plane[:3] @ centroid + structure.floor_plane[3])
                   if structure.floor_found else math.nan)
@@ -246,8 +246,14 @@ class ScenePerception:
             links = organised_links(idx, pts_c, S.shape, cfg.cluster_tolerance, spacing, spacing_factor=1.5)
             ids, count = euclidean_clusters(pts_c, cfg.voxel_size, cfg.cluster_tolerance, cfg.min_cluster_voxels, links)
             if count:
-                top = np.full(count, -np.inf)
-                np.maximum.at(top, ids[ids >= 0], height[idx[ids >= 0]] - S.tolerance[idx[ids >= 0]])
+                # Each cluster's top: the highest member above the inlier band (a sorted
+                # segment-wise maximum; every cluster id 0..count-1 has members).
+                clustered = ids >= 0
+                cl_ids = ids[clustered]
+                cl_idx = idx[clustered]
+                cl_order = np.argsort(cl_ids, kind="stable")
+                starts = np.searchsorted(cl_ids[cl_order], np.arange(count))
+                top = np.maximum.reduceat((height[cl_idx] - S.tolerance[cl_idx])[cl_order], starts).astype(np.float64)
                 tall = np.flatnonzero(top >= cfg.min_obstacle_height)
                 remap = np.full(count + 1, -1, dtype=np.int64)
                 remap[tall] = np.arange(len(tall))
@@ -265,12 +271,19 @@ class ScenePerception:
             hz = np.hypot(in_f[:, 0], in_f[:, 2])
             order = np.argsort(cid, kind="stable")
             bounds = np.searchsorted(cid[order], np.arange(count + 1))
-            for k in range(count):
-                sel = order[bounds[k]:bounds[k + 1]]
-                box = in_f[sel]
-                structure.obstacles.append(ObstacleCluster(
-                    centroid=pts[sel].mean(axis=0), min_floor=box.min(axis=0), max_floor=box.max(axis=0),
-                    height=float(-box[:, 1].min()), distance=float(hz[sel].min()), num_points=int(len(sel))))
+            if count:
+                # Per-cluster reductions over the sorted members' segments (the same sums, in the
+                # same order, as the per-cluster mean/min/max).
+                starts, sizes = bounds[:-1], np.diff(bounds)
+                centroids = np.add.reduceat(pts[order], starts, axis=0) / sizes[:, None]
+                box = in_f[order]
+                lo = np.minimum.reduceat(box, starts, axis=0)
+                hi = np.maximum.reduceat(box, starts, axis=0)
+                nearest = np.minimum.reduceat(hz[order], starts)
+                for k in range(count):
+                    structure.obstacles.append(ObstacleCluster(
+                        centroid=centroids[k], min_floor=lo[k], max_floor=hi[k], height=float(-lo[k, 1]),
+                        distance=float(nearest[k]), num_points=int(sizes[k])))
         if not structure.floor_found:
             return
         floor_idx = np.flatnonzero(flat == L.FLOOR)
