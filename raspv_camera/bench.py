@@ -176,6 +176,10 @@ def part1(recordings: dict[str, Path]) -> dict:
     return results
 
 
+class GraphFailed(RuntimeError):
+    """The graph stopped, or showed no phosphene frame from a camera frame within 120 s (its output)."""
+
+
 def _graph_latency(source: dict, seconds: float, workdir: Path,
                    overrides: list[str] = ()) -> tuple[dict[str, list[float]], str]:
     """For the camera graph with ``source`` as its RGB-D source node: per camera frame, the time
@@ -208,7 +212,14 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         poses = probe.subscribe(topics.CAMERA_POSE, PoseStamped)
         outputs = {"phosphenes": (frames, lambda m: m.source_stamp), "scene": (scenes, lambda m: m.header.stamp),
                    "pose": (poses, lambda m: m.header.stamp)}
-        frames.wait(1, timeout=120, predicate=lambda m: stamp_to_seconds(m.source_stamp) > 0)
+        deadline = time.monotonic() + 120
+        while True:                  # the first phosphene frame built from a camera frame; or the graph failed
+            try:
+                frames.wait(1, timeout=1.0, predicate=lambda m: stamp_to_seconds(m.source_stamp) > 0)
+                break
+            except TimeoutError:
+                if not graph.running() or time.monotonic() > deadline:
+                    raise GraphFailed(graph.output[-2000:]) from None
         collectors = [infos] + [c for c, _ in outputs.values()]
         for c in collectors:
             with c._cond:
@@ -243,7 +254,8 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         graph.stop()
 
 
-def part2(recordings: dict[str, Path], args, workdir: Path) -> None:
+def part2(recordings: dict[str, Path], args, workdir: Path) -> bool:
+    """Part 2 for each source; False when a graph failed (its output is printed)."""
     from raspv_bringup.testing import claim_private_domain
 
     claim_private_domain()
@@ -255,8 +267,14 @@ def part2(recordings: dict[str, Path], args, workdir: Path) -> None:
         cases.append(("peer: replay node, RASPV bag", {"entry": {"kind": "replay"}, "params": {"replay": {"ros__parameters": {
             "bag": str(recordings["bag"]), "loop": True,
             "exclude_topics": ["/camera/pose", "/spv/image", "/spv/frame", "/spv/map", "/scene/structure"]}}}}))
+    failed = False
     for name, source in cases:
-        result, log = _graph_latency(source, args.seconds, workdir, args.set)
+        try:
+            result, log = _graph_latency(source, args.seconds, workdir, args.set)
+        except GraphFailed as exc:
+            print(f"  {name:30s} no phosphene frame from a camera frame; the graph's output ends:\n{exc}")
+            failed = True
+            continue
         lat = result["phosphenes"]
         verdict = ""
         if lat:
@@ -270,10 +288,14 @@ def part2(recordings: dict[str, Path], args, workdir: Path) -> None:
         print(f"  {'':30s} {log.splitlines()[-1]}")
         if not lat:
             print("    no phosphene frame came from a camera frame; graph output:\n" + log[-2000:])
+    return not failed
 
 
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if args.keep and Path(args.keep).exists() and (not Path(args.keep).is_dir() or any(Path(args.keep).iterdir())):
+        print(f"raspv bench camera: --keep {args.keep}: not an empty directory; choose a new one")
+        return 2
     with tempfile.TemporaryDirectory(prefix="raspv-camera-bench-") as tmp:
         folder = Path(args.keep) if args.keep else Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
@@ -282,6 +304,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"recordings written by the SDKs in {time.monotonic() - t0:.1f} s: "
               + ", ".join(f"{k} {v.name}" for k, v in recordings.items()))
         part1(recordings)
-        if not args.no_graph:
-            part2(recordings, args, folder)
+        if not args.no_graph and not part2(recordings, args, folder):
+            return 1
     return 0
