@@ -327,7 +327,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
 
 def run(args: argparse.Namespace) -> int:
     from raspv_bringup.graph import GraphError, resolve_graph_path
-    from raspv_bringup.testing import claim_private_domain
+    from raspv_bringup.testing import GraphStopped, claim_private_domain
 
     if args.steps < 2 or not args.hold > 0.5 or not 0 < args.amplitude <= 90 or args.repeat < 1:
         print("raspv bench e2e: --steps >= 2, --hold > 0.5 s, 0 < --amplitude <= 90, --repeat >= 1")
@@ -355,13 +355,13 @@ def run(args: argparse.Namespace) -> int:
                              f"spv.temporal:={'true' if t else 'false'}", *args.set]
                 try:
                     failures += run_configuration(args, graph_path, label, overrides)
-                except (RuntimeError, TimeoutError, subprocess.TimeoutExpired) as exc:
+                except (GraphStopped, RuntimeError, TimeoutError, subprocess.TimeoutExpired) as exc:
                     print(f"  failed: {exc}")
                     failures.append(f"{label}: did not run")
     print(f"\ntargets (reprojection on, temporal model off): onset p95 ≤ {ONSET_TARGET_MS:g} ms, "
           f"50 % of change p95 ≤ {HALF_TARGET_MS:g} ms")
     for f in failures:
-        print(f"  ABOVE TARGET: {f}")
+        print(f"  {'FAILED' if f.endswith('did not run') else 'ABOVE TARGET'}: {f}")
     if not failures:
         print("  all configurations within the targets")
-    return 0
+    return 1 if any(f.endswith("did not run") for f in failures) else 0
