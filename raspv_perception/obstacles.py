@@ -11,6 +11,8 @@ Camera frame C, metres.
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from raspv_perception.point_cloud import voxel_downsample
@@ -78,42 +80,14 @@ def euclidean_clusters(points: np.ndarray, voxel_size: float, tolerance: float, 
     if links is not None and len(links):
         rows.append(grid.inverse[links[:, 0]])
         cols.append(grid.inverse[links[:, 1]])
-    count, comp = _components(m, np.concatenate(rows), np.concatenate(cols))
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    # the links' direction does not matter: weak components of the directed graph are the
+    # undirected ones, without symmetrising it first
+    graph = csr_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(m, m))
+    count, comp = connected_components(graph, directed=True, connection="weak")
     sizes = np.bincount(comp, minlength=count)
     order = np.argsort(-sizes, kind="stable")
     keep = order[sizes[order] >= min_voxels]
     remap = np.full(count, -1, dtype=np.int64)
     remap[keep] = np.arange(len(keep))
     return remap[comp][grid.inverse], len(keep)
-
-
-def _components(m: int, r: np.ndarray, c: np.ndarray) -> tuple[int, np.ndarray]:
-    """Connected components of the undirected graph on nodes 0..m-1 with edges (r[i], c[i]):
-    their number and each node's component, numbered in the order of their smallest node (the
-    numbering of ``scipy.sparse.csgraph.connected_components``, without its graph conversions).
-
-    Union-find in whole-array passes: every tree root is hooked to the smallest root it shares
-    an edge with (so parent[x] <= x, no cycles), then paths are compressed by pointer jumping,
-    until no edge joins two trees."""
-    parent = np.arange(m)
-    u, v = r, c
-    first = True
-    while len(u):
-        pu, pv = parent[u], parent[v]            # roots: parent is fully compressed here
-        if not first:
-            joins = pu != pv
-            if not joins.any():
-                break
-            if len(u) > 1024:                    # later passes only need the edges still joining trees
-                keep = np.flatnonzero(joins)
-                u, v, pu, pv = u[keep], v[keep], pu[keep], pv[keep]
-        first = False
-        np.minimum.at(parent, np.maximum(pu, pv), np.minimum(pu, pv))
-        while True:
-            grand = parent[parent]
-            if np.array_equal(grand, parent):
-                break
-            parent = grand
-    is_root = parent == np.arange(m)
-    rank = np.cumsum(is_root) - 1
-    return (int(rank[-1]) + 1 if m else 0), rank[parent]
