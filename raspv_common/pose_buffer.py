@@ -120,12 +120,13 @@ class PoseBuffer:
         at the velocity between the two newest samples (constant linear and angular velocity,
         at most ``max_ahead_s`` ahead; beyond that the pose there is held); None when empty.
         For data that comes before its pose (images ahead of a lagging odometry)."""
-        n = len(self._stamps)
-        if n == 0:
+        if not self._stamps:
             return None
         last = self._stamps[-1]
-        if stamp <= last or n < 2:
-            return self.lookup_or_none(stamp) if stamp <= last else self._poses[-1].copy()
+        if stamp <= last:
+            return self.lookup_or_none(stamp)
+        if len(self._stamps) < 2:
+            return self._poses[-1].copy()
         t0 = self._stamps[-2]
         ahead = min(stamp, last + max_ahead_s)
         return interpolate_pose(self._poses[-2], self._poses[-1], (ahead - t0) / (last - t0))

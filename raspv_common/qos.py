@@ -5,8 +5,9 @@ Images are *reliable, keep-last 2*: with the shared-memory transport a reliable 
 of a backlog. Nodes that *process* images (scene perception, odometry, the phosphene
 simulator) subscribe keep-last 1 (:data:`LATEST_QOS`): when they fall behind they skip to the
 newest frame instead of working through an older one (a frame less of latency per frame of
-backlog). Recorders keep the publishers' depth. Commands are reliable keep-last 1 (only the newest command matters). Latched
-topics (the phosphene map, class tables) are transient-local so late joiners get them.
+backlog). Recorders keep the publishers' depth. Commands are reliable keep-last 1 (only the
+newest command matters). Latched topics (the phosphene map, class tables) are transient-local
+so late joiners get them.
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 

@@ -2,7 +2,7 @@
 
 Colour and depth are paired by stamp and registered frame to frame (``rgbd_odometry``), at
 most ``max_rate`` frames per second by their stamps (the phosphenes do not wait for the poses:
-the spv node predicts them; the node also runs at a lower priority, ``run_node``). The
+the spv node predicts them). The
 world frame W is the first camera frame made gravity-aligned by the first floor the `scene`
 node reports (z up, z = 0 on the floor, x along the first view direction); poses are published
 from then on. Without a floor within ``anchor_timeout`` seconds (or with

@@ -5,7 +5,7 @@ PARAMS = [
     Param("scale", 0.5, "images are resized by this before registration (1.0: full size, slower)", minimum=0.1,
           maximum=1.0, dynamic=False),
     Param("max_rate", 10.0, "register at most this many frames per second (0: every frame); the spv node predicts "
-          "the poses in between. One 320x240 registration costs ~25 ms of a core", minimum=0.0, maximum=120.0,
+          "the poses in between. One 320x240 registration costs ~21 ms of a core", minimum=0.0, maximum=120.0,
           unit="Hz", dynamic=False),
     Param("threads", 1, "Open3D threads (1: one core, the graph's other nodes keep theirs; more: lower latency on "
           "larger machines)", minimum=1, maximum=64, dynamic=False),

@@ -215,11 +215,11 @@ class Simulation:
         if raw.body is None:
             return SimFrame(self.t, raw.rgb, raw.depth, None, T, self.camera.intrinsics)
         body = np.clip(raw.body + 1, 0, len(self.world.class_lut) - 1)
-        labels = self.world.class_lut[body]
         depth = raw.depth
         if self.depth_model is not None:
             depth = self.depth_model.apply(depth, raw.rgb, self.world.specular_lut[body])
-        return SimFrame(self.t, raw.rgb, depth, labels, T, self.camera.intrinsics)
+        return SimFrame(self.t, raw.rgb, depth, self.world.class_lut[body] if labels else None, T,
+                        self.camera.intrinsics)
 
     def render_from(self, x: float, y: float, yaw: float, head_roll: float = 0.0, head_pitch: float = 0.0,
                     head_yaw: float = 0.0) -> SimFrame:

@@ -40,10 +40,6 @@ class DisplayClock:
         self._deadline: float | None = None
         self._last_frame: float | None = None
 
-    @property
-    def stopped(self) -> bool:
-        return self._stopped
-
     def poke(self) -> None:
         """New content to show (from any thread)."""
         with self._cond:

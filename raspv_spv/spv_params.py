@@ -48,7 +48,7 @@ PARAMS = [
     Param("reprojection", True, "re-sample the last camera frame for the newest head orientation at every display tick "
           "(needs /head/orientation to turn the camera: sim, head-mounted camera; off for recordings)"),
     Param("display_on_input", True, "with the temporal model off, show a head turn or a new camera frame at once "
-          "instead of at the next display tick (at most 2 x rate frames/s); with it on, frames keep the model's rate"),
+          "instead of at the next display tick (at most 4 x rate frames/s); with it on, frames keep the model's rate"),
     Param("predict_pose", True, "a frame whose camera pose comes later (RGB-D odometry) is shown at once with the pose "
           "predicted at its stamp, then recomputed with its own; off: it waits for its pose (headless always waits)"),
     Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
