@@ -23,7 +23,10 @@ class FrameInputs:
 
     ``stamp``: capture time [s]. ``camera_pose``: 4×4 world ← camera optical (metres), or None.
     ``scene``: the scene-perception core's result for this frame (floor, planes, obstacles), or
-    None. ``scene_labels``: (H, W) uint8 per-pixel scene class, registered to ``depth``.
+    None. ``scene_labels``: (H, W) uint8 per-pixel scene class, registered to ``depth`` (any
+    size: modes sample it at their rays). ``scene_stamp``: capture time [s] of the depth frame
+    the scene result was computed from; earlier than ``stamp`` when an earlier result was
+    carried into this frame (:mod:`raspv_perception.scene_carry`), 0 without scene.
     ``extras``: further inputs by name (stairs, navigation path, segmentation, …).
     ``cache``: what modes derived from this frame (see :meth:`cached`).
     """
@@ -35,6 +38,7 @@ class FrameInputs:
     camera_pose: np.ndarray | None = None
     scene: Any = None
     scene_labels: np.ndarray | None = None
+    scene_stamp: float = 0.0
     extras: dict[str, Any] = field(default_factory=dict)
     cache: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 

@@ -186,10 +186,13 @@ class FrameHistory:
         return len(self._frames)
 
     def add(self, frame: DisplayFrame, latency_s: float = 0.0) -> None:
-        """Append ``frame`` (frames come in stamp order; one stamped > 1 s before the newest —
-        a bag looping — starts over) and forget frames no display ``latency_s`` behind needs."""
+        """Append ``frame`` and forget frames no display ``latency_s`` behind needs. A frame
+        stamped > 1 s before the newest (a bag looping) starts over; one less before it (a scene
+        result that came after a newer frame was shown) is dropped: the display never goes back."""
         with self._lock:
-            if self._frames and frame.stamp < self._frames[-1].stamp - 1.0:
+            if self._frames and frame.stamp < self._frames[-1].stamp:
+                if frame.stamp >= self._frames[-1].stamp - 1.0:
+                    return
                 self._frames.clear()
             if self._frames and frame.stamp == self._frames[-1].stamp:
                 self._frames[-1] = frame          # the same frame again, recomputed (its pose came)
@@ -236,6 +239,7 @@ class DisplayView:
         self.frames = FrameHistory()
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
+        self.picked: DisplayFrame | None = None    # the frame the last levels_at showed
 
     def configure(self, reprojection: bool, latency_ms: float) -> None:
         self.reprojection, self.latency_s = reprojection, latency_ms / 1000.0
@@ -253,7 +257,7 @@ class DisplayView:
         simulator ``sim`` (a :class:`~raspv_spv.simulator.PhospheneSimulator`) and map
         ``map_id``; None when no frame of this map is due yet, or the current mode cannot run
         on it (a scene mode switched on before the scene arrived)."""
-        frame = self.frames.pick(display_stamp, self.latency_s)
+        frame = self.picked = self.frames.pick(display_stamp, self.latency_s)
         if frame is None:
             return None
         if (frame.map_id != map_id or frame.levels.shape != (sim.count,)) and frame.simulator in (sim, None):

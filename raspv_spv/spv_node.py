@@ -59,6 +59,7 @@ from raspv_common.startup_timing import startup_mark
 from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_nav.nav_msg import guidance_from_msg
+from raspv_perception.scene_carry import carry_labels, structure_seen_from
 from raspv_perception.scene_msg import structure_from_msg
 from raspv_perception.segmentation_msg import classes_from_msg
 from raspv_perception.stairs_msg import staircase_from_msg
@@ -76,6 +77,7 @@ from raspv_spv.spv_params import PARAMS
 
 HEAD_POKE_COS = float(np.cos(np.radians(0.1) / 2))  # a head turn of more than 0.1° is shown at once
 VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
+MAX_CARRY_S = 0.3       # carry_scene: a scene result is carried at most this far (the staleness bound)
 
 
 class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
@@ -305,8 +307,13 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             return
         scene_inputs = [n for n in ("scene", "scene_labels") if n in sim.needs]
         if scene_inputs:
-            # scene modes run when the scene node's outputs of one depth frame are all in
-            if which not in scene_inputs or len({self.stamps[n] for n in scene_inputs}) > 1:
+            # scene modes run when the scene node's outputs of one depth frame are all in; with
+            # carry_scene a newer depth frame is shown at once with them carried into it
+            complete = which in scene_inputs and len({self.stamps[n] for n in scene_inputs}) == 1
+            if (plan.normal and "scene_labels" in scene_inputs and (which == "depth" or complete)
+                    and self._carry_scene(sim)):
+                return
+            if not complete:
                 return
         elif which != ("color" if "color" in sim.needs else "depth"):
             return
@@ -325,7 +332,8 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             return value if abs(self.stamps[name] - stamp) <= POSE_TOLERANCE_S else None
         inputs = FrameInputs(color=self.color, depth=self.depth, camera=self.intrinsics, stamp=stamp,
                              scene=of_this_frame("scene", self.scene),
-                             scene_labels=of_this_frame("scene_labels", self.scene_labels), extras=dict(self.extras))
+                             scene_labels=of_this_frame("scene_labels", self.scene_labels),
+                             scene_stamp=stamp if scene_inputs else 0.0, extras=dict(self.extras))
         if self._pending is not None:               # its pose never came: it goes with the pose there is
             if not self._pending_shown:
                 self._finish_frame(self._pending)
@@ -343,6 +351,35 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
                 self._pending, self._pending_shown = inputs, False
             return
         self._finish_frame(inputs)
+
+    def _carry_scene(self, sim: PhospheneSimulator) -> bool:
+        """Show the newest depth frame at once with the newest complete scene result carried
+        into it by the camera's motion (:mod:`raspv_perception.scene_carry`; its own result
+        replaces it when it comes). False when there is nothing to carry: ``carry_scene`` off,
+        headless, no newer depth frame, or a result older than :data:`MAX_CARRY_S`."""
+        if not self.params["carry_scene"] or self.params["headless"] or self.intrinsics is None:
+            return False
+        depth, labels, scene = self.depth, self.scene_labels, self.scene
+        new, old = self.stamps["depth"], self.stamps["scene_labels"]
+        if (depth is None or labels is None or not old < new - POSE_TOLERANCE_S or new - old > MAX_CARRY_S
+                or depth.shape != (self.intrinsics.height, self.intrinsics.width)):
+            return False
+        if abs(self.stamps["scene"] - old) > POSE_TOLERANCE_S:
+            if "scene" in sim.needs:
+                return False                        # the structure of that frame is not in yet
+            scene = None
+        tracker = self.view.tracker
+        at_new, at_old = tracker.camera_pose_predicted(new), tracker.camera_pose_predicted(old)
+        new_from_old = np.eye(4) if at_new is None or at_old is None else np.linalg.inv(at_new) @ at_old
+        if scene is not None:
+            scene = structure_seen_from(scene, new_from_old)
+        carried = carry_labels(labels, depth, self.intrinsics, new_from_old,
+                               scene.floor_plane if scene is not None and scene.floor_found else None)
+        inputs = FrameInputs(color=self.color, depth=depth, camera=self.intrinsics, stamp=new, scene=scene,
+                             scene_labels=carried, scene_stamp=old, extras=dict(self.extras))
+        newest_pose = tracker.newest_camera_pose_stamp()
+        self._finish_frame(inputs, predicted=newest_pose is not None and newest_pose < new - POSE_TOLERANCE_S)
+        return True
 
     def _finish_frame(self, inputs: FrameInputs, predicted: bool = False) -> None:
         """Levels of a complete frame, with the camera pose at its stamp (``predicted``: continued

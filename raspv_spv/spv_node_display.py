@@ -40,11 +40,14 @@ class SpvDisplay:
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
             plan, shown_sim, no_data = self._shown_for(sim, t0)
+            scene_stamp = 0.0
             if plan.no_data:                        # the camera stopped: the no-data pattern, not its last frame
                 levels, source_stamp = no_data.levels(t0), 0.0
             else:
                 shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
                 levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
+                if shown is not None and shown_sim.mode.needs & {"scene", "scene_labels"}:
+                    scene_stamp = self.view.picked.inputs.scene_stamp
             brightness = sim.brightness(levels, frames)
         if stamp is not None:
             source_stamp = stamp                    # headless: the frame answers this input
@@ -58,6 +61,7 @@ class SpvDisplay:
         frame = PhospheneFrame(header=header, map_id=map_id, mode=plan.mode, overlays=list(plan.overlays),
                                temporal=sim.temporal is not None)
         frame.source_stamp = self.header("", source_stamp).stamp
+        frame.scene_stamp = self.header("", scene_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())
         frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
         try:

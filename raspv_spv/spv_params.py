@@ -51,6 +51,9 @@ PARAMS = [
           "instead of at the next display tick (at most 4 x rate frames/s); with it on, frames keep the model's rate"),
     Param("predict_pose", True, "a frame whose camera pose comes later (RGB-D odometry) is shown at once with the pose "
           "predicted at its stamp, then recomputed with its own; off: it waits for its pose (headless always waits)"),
+    Param("carry_scene", True, "scene modes show each new depth frame at once with the newest scene-perception "
+          "result carried into it by the camera's motion, and again with its own result when that comes; off: they "
+          "wait for it (headless always waits)"),
     Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
           "(0: as soon as the graph can)", minimum=0.0, maximum=1000.0, unit="ms"),
     Param("stale_inputs", True, "notice inputs that stop (camera, scene, path, stairs, segmentation) and show a "

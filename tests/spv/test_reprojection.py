@@ -189,6 +189,8 @@ def test_a_frame_recomputed_with_its_own_pose_replaces_the_shown_one():
     h.add(frame_at(1.05, levels=np.full(3, 7, np.uint8)))       # shown with a predicted pose
     h.add(frame_at(1.05, levels=np.full(3, 9, np.uint8)))       # again once its pose came
     assert len(h) == 2 and h.newest().levels[0] == 9
+    h.add(frame_at(1.02, levels=np.full(3, 5, np.uint8)))       # a scene result of an earlier frame, late
+    assert len(h) == 2 and h.newest().stamp == 1.05             # the display does not go back
 
 
 def test_frame_history_forgets_what_no_display_needs():

@@ -1,0 +1,140 @@
+"""Carrying a scene result into a later depth frame (raspv_perception.scene_carry): a synthetic
+walk with true poses, real Kinect frames with RGB-D odometry, floor that something steps onto,
+and the floor frame's contents staying put in the world."""
+import math
+
+import numpy as np
+import pytest
+
+from raspv_camera.synthetic_scene import SyntheticRoom
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_perception import scene_labels as L
+from raspv_perception.rgbd_odometry import RGBDOdometry
+from raspv_perception.scene_carry import carry_labels, structure_seen_from
+from raspv_perception.scene_perception import ScenePerception
+
+K = CameraIntrinsics.from_hfov(640, 480, 60.0)
+STRIDE = 4
+
+
+def agreement(a, b):
+    """Share of pixels labelled in ``b`` where ``a`` says the same."""
+    m = b != L.NONE
+    return float((a[m] == b[m]).mean())
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """Scene results of a walk in the synthetic room at 30 Hz: [(W ← C, depth, result)]."""
+    room, scene = SyntheticRoom(K), ScenePerception()
+    out = []
+    for t in np.arange(0.0, 2.0, 1 / 30):
+        T = room.pose_at(t)
+        depth = room.render(T)[1]
+        out.append((T, depth, scene.process(depth, K)))
+    return out
+
+
+def carried_pair(old, new):
+    (T0, _, r0), (T1, d1, _) = old, new
+    new_from_old = np.linalg.inv(T1) @ T0
+    s = structure_seen_from(r0.structure, new_from_old)
+    return s, carry_labels(r0.labels, d1, K, new_from_old, s.floor_plane)
+
+
+def test_a_walk_carried_one_frame_matches_the_next_frames_own_result(walk):
+    ours, same_pixels = [], []
+    for old, new in zip(walk[:-1:3], walk[1::3]):
+        s, labels = carried_pair(old, new)
+        own = new[2]
+        truth = own.labels[::STRIDE, ::STRIDE]
+        ours.append(agreement(labels, truth))
+        same_pixels.append(agreement(old[2].labels[::STRIDE, ::STRIDE], truth))
+        assert s.floor_found
+        np.testing.assert_allclose(s.floor_plane, own.structure.floor_plane, atol=0.005)
+        np.testing.assert_allclose(s.camera_to_floor, own.structure.camera_to_floor, atol=0.005)
+        assert s.camera_pitch_deg == pytest.approx(own.structure.camera_pitch_deg, abs=0.3)
+    # measured: 99 % on average, 98 % at worst; the old labels as they were: 98.5 %
+    assert np.mean(ours) >= 0.97 and min(ours) >= 0.95
+    assert np.mean(ours) > np.mean(same_pixels)
+
+
+def test_a_walk_carried_five_frames_still_matches(walk):
+    """Carried 167 ms (five frames of 30 Hz, 6.7 cm and 2.4° of walk): what the display shows
+    when scene perception falls behind."""
+    ours, same_pixels = [], []
+    for old, new in zip(walk[:-5:5], walk[5::5]):
+        _, labels = carried_pair(old, new)
+        truth = new[2].labels[::STRIDE, ::STRIDE]
+        ours.append(agreement(labels, truth))
+        same_pixels.append(agreement(old[2].labels[::STRIDE, ::STRIDE], truth))
+    assert np.mean(ours) >= 0.96 and np.mean(ours) > np.mean(same_pixels) + 0.01
+
+
+def test_floor_frame_contents_stay_put_in_the_world(walk):
+    (T0, _, r0), (T1, _, _) = walk[0], walk[6]
+    s = structure_seen_from(r0.structure, np.linalg.inv(T1) @ T0)
+    assert len(r0.structure.free_floor) > 3 and r0.structure.obstacles
+
+    def world(T, camera_to_floor, xz):
+        p = np.column_stack([xz[:, 0], np.zeros(len(xz)), xz[:, 1], np.ones(len(xz))])
+        return (T @ camera_to_floor @ p.T).T[:, :3]
+    np.testing.assert_allclose(world(T1, s.camera_to_floor, s.free_floor),
+                               world(T0, r0.structure.camera_to_floor, r0.structure.free_floor), atol=1e-9)
+    for a, b in zip(s.obstacles, r0.structure.obstacles):
+        np.testing.assert_allclose((T1 @ np.append(a.centroid, 1))[:3], (T0 @ np.append(b.centroid, 1))[:3], atol=1e-9)
+        assert np.all(a.max_floor - a.min_floor >= b.max_floor - b.min_floor - 1e-9)   # a turned box only grows
+    for a, b in zip(s.planes, r0.structure.planes):       # the same points on the same plane
+        assert a.coefficients @ np.append(a.centroid, 1) == pytest.approx(b.coefficients @ np.append(b.centroid, 1),
+                                                                         abs=1e-9)
+
+
+def test_floor_stepped_on_becomes_obstacle_and_floor_into_view_becomes_floor(walk):
+    T, depth, r = walk[0]
+    s = r.structure
+    labels = r.labels.copy()
+    floor = labels == L.FLOOR
+    assert floor.mean() > 0.15
+    # something steps onto the floor at the bottom right of the image
+    stepped = depth.copy()
+    rows, cols = slice(400, 480), slice(400, 560)
+    assert floor[rows, cols].all()
+    stepped[rows, cols] *= 0.8                               # nearer: points rise above the floor
+    # and the old frame did not see the floor at the bottom-left corner (no reading there)
+    labels[400:, 160:320] = L.NONE
+    out = carry_labels(labels, stepped, K, np.eye(4), s.floor_plane)
+    block = out[rows.start // STRIDE:rows.stop // STRIDE, cols.start // STRIDE:cols.stop // STRIDE]
+    assert (block == L.OBSTACLE).mean() > 0.95
+    assert (out[400 // STRIDE:, 160 // STRIDE:320 // STRIDE] == L.FLOOR).all()
+    # elsewhere the same frame carried by no motion is its labels on the grid
+    same = carry_labels(r.labels, depth, K, np.eye(4), s.floor_plane)
+    assert agreement(same, r.labels[::STRIDE, ::STRIDE]) > 0.999
+
+
+def test_no_depth_is_no_label_and_no_floor_skips_the_floor_check(walk):
+    _, depth, r = walk[0]
+    holes = depth.copy()
+    holes[:, :320] = np.nan
+    out = carry_labels(r.labels, holes, K, np.eye(4), None)
+    assert (out[:, :320 // STRIDE] == L.NONE).all()
+    assert (out[:, 320 // STRIDE:] == r.labels[::STRIDE, 320::STRIDE]).all()
+
+
+def test_real_kinect_frames_carried_by_odometry_match_their_own_result(kinect_frames):
+    """The PCL table frames (0.25 s apart, hand-held): frame 0's result carried into frame 1
+    with the RGB-D odometry's motion, against frame 1's own."""
+    scene, odometry = ScenePerception(), RGBDOdometry()
+    results, motion = [], []
+    for rgb, depth, K_ in kinect_frames[:2]:
+        results.append(scene.process(depth, K_))
+        motion.append(odometry.process(rgb, depth, K_).relative)
+    depth1, K_ = kinect_frames[1][1], kinect_frames[1][2]
+    new_from_old = np.linalg.inv(motion[1])
+    s = structure_seen_from(results[0].structure, new_from_old)
+    plane = s.floor_plane if s.floor_found else None
+    carried = carry_labels(results[0].labels, depth1, K_, new_from_old, plane)
+    truth = results[1].labels[::STRIDE, ::STRIDE]
+    ours, same = agreement(carried, truth), agreement(results[0].labels[::STRIDE, ::STRIDE], truth)
+    print(f"kinect: carried {ours:.3f}, same pixels {same:.3f}, motion {np.linalg.norm(new_from_old[:3, 3]):.3f} m")
+    # measured: 97.1 %; the old labels as they were: 95.4 %
+    assert ours >= 0.95 and ours > same
