@@ -251,6 +251,16 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
                     lat.append(1e3 * (t - waiting.pop(stamp)))
             result[name] = lat
         result["camera frames"] = [float(len(snapshot["info"]))]
+        # frames shown twice, carried then with their own scene: how many phosphenes changed level
+        first_carried: dict[float, np.ndarray] = {}
+        changed = []
+        for m, _ in snapshot["phosphenes"]:
+            source, scene = stamp_to_seconds(m.source_stamp), stamp_to_seconds(m.scene_stamp)
+            if scene != source and source not in first_carried:
+                first_carried[source] = np.asarray(m.levels)
+            elif scene == source and source in first_carried:
+                changed.append(100.0 * float(np.mean(first_carried.pop(source) != np.asarray(m.levels))))
+        result["changed"] = changed
         result["scene core"] = [float(m.processing_ms) for m, _ in snapshot["scene"]]
         return result, graph.output + f"\nCPU (of one core): {cpu}"
     finally:
@@ -290,6 +300,8 @@ def part2(recordings: dict[str, Path], args, workdir: Path) -> bool:
                             ("pose", "odometry pose")):
             print(f"  {'':30s} {len(result[stage]):4d} of {sent} camera frames → {what}: {_stats(result[stage])} ms")
         print(f"  {'':30s} scene perception's own time per frame in the graph: {_stats(result['scene core'])} ms")
+        print(f"  {'':30s} {len(result['changed']):4d} frames shown carried, then with their own scene: "
+              f"phosphenes that changed level {_stats(result['changed'])} %")
         print(f"  {'':30s} {log.splitlines()[-1]}")
         if not lat:
             print("    no phosphene frame came from a camera frame; graph output:\n" + log[-2000:])
