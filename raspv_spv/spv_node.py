@@ -32,7 +32,6 @@ blinking no-data ring (:mod:`raspv_spv.no_data`); ``/spv/status`` says what is s
 """
 from __future__ import annotations
 
-import array
 import dataclasses
 import json
 import statistics
@@ -470,24 +469,6 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             self._plan_logged, self._stale_logged = now, True
             what = ", ".join(self.staleness.describe(n, now) for n in sorted(plan.stale))
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
-
-    def publish_map(self) -> None:
-        sim, map_id = self.sim, self.map_id
-        m, c = sim.map, sim.config
-        msg = PhospheneMap(header=self.header("phosphene"), map_id=map_id, device=c.device.name, width=c.width,
-                           height=c.height, fov_deg=c.device.fov_deg, focal_px=m.focal_px,
-                           phosphene_fov_deg=c.device.phosphene_fov_deg, phosphene_diameter_px=m.diameter_px,
-                           grid=PhospheneMap.GRID_HEXAGONAL if c.device.grid == "hexagonal" else PhospheneMap.GRID_RECTANGULAR,
-                           field=PhospheneMap.FIELD_CIRCULAR if c.device.field == "circular" else PhospheneMap.FIELD_RECTANGULAR,
-                           spacing_x_px=float(m.spacing_x), spacing_y_px=float(m.spacing_y),
-                           num_levels=c.device.num_levels, dropout_ratio=c.device.dropout,
-                           position_noise_px=c.device.noise_px, seed=c.seed)
-        msg.x = array.array("f", m.centres[:, 0].astype(np.float32).tobytes())
-        msg.y = array.array("f", m.centres[:, 1].astype(np.float32).tobytes())
-        msg.display_x = array.array("f", m.display_centres[:, 0].astype(np.float32).tobytes())
-        msg.display_y = array.array("f", m.display_centres[:, 1].astype(np.float32).tobytes())
-        msg.dropped = [bool(d) for d in m.dropped]
-        self.pub_map.publish(msg)
 
     def close(self) -> None:
         self._builder.close()

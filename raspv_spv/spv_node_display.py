@@ -1,6 +1,6 @@
 """The spv node's display (ROS side): the loop that shows a frame every 1/rate s, or at once on
 new content when it follows its input (:mod:`raspv_spv.display_clock`), and the tick that
-publishes ``/spv/image`` and ``/spv/frame``. A mixin of :class:`raspv_spv.spv_node.SpvNode`:
+publishes ``/spv/image`` and ``/spv/frame``, and the latched ``/spv/map``. A mixin of :class:`raspv_spv.spv_node.SpvNode`:
 it reads the node's simulator, view, staleness plan, publishers and display statistics.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ from sensor_msgs.msg import Image
 
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
-from raspv_msgs.msg import PhospheneFrame
+from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 
 REPORT_PERIOD_S = 10.0
 
@@ -97,3 +97,21 @@ class SpvDisplay:
             self.get_logger().warning(f"dropped {new} display frames in the last {REPORT_PERIOD_S:.0f} s at {rate:g} Hz "
                                       f"({self._dropped} since start, {self._ticks} shown)")
             self._dropped_reported = self._dropped
+
+    def publish_map(self) -> None:
+        sim, map_id = self.sim, self.map_id
+        m, c = sim.map, sim.config
+        msg = PhospheneMap(header=self.header("phosphene"), map_id=map_id, device=c.device.name, width=c.width,
+                           height=c.height, fov_deg=c.device.fov_deg, focal_px=m.focal_px,
+                           phosphene_fov_deg=c.device.phosphene_fov_deg, phosphene_diameter_px=m.diameter_px,
+                           grid=PhospheneMap.GRID_HEXAGONAL if c.device.grid == "hexagonal" else PhospheneMap.GRID_RECTANGULAR,
+                           field=PhospheneMap.FIELD_CIRCULAR if c.device.field == "circular" else PhospheneMap.FIELD_RECTANGULAR,
+                           spacing_x_px=float(m.spacing_x), spacing_y_px=float(m.spacing_y),
+                           num_levels=c.device.num_levels, dropout_ratio=c.device.dropout,
+                           position_noise_px=c.device.noise_px, seed=c.seed)
+        msg.x = array.array("f", m.centres[:, 0].astype(np.float32).tobytes())
+        msg.y = array.array("f", m.centres[:, 1].astype(np.float32).tobytes())
+        msg.display_x = array.array("f", m.display_centres[:, 0].astype(np.float32).tobytes())
+        msg.display_y = array.array("f", m.display_centres[:, 1].astype(np.float32).tobytes())
+        msg.dropped = [bool(d) for d in m.dropped]
+        self.pub_map.publish(msg)

@@ -1,7 +1,6 @@
 """Carrying a scene result into a later depth frame (raspv_perception.scene_carry): a synthetic
 walk with true poses, real Kinect frames with RGB-D odometry, floor that something steps onto,
 and the floor frame's contents staying put in the world."""
-import math
 
 import numpy as np
 import pytest
