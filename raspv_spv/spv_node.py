@@ -7,7 +7,9 @@ camera pose, scene structure and labels (from the `scene` node); with ``reprojec
 :class:`~raspv_spv.simulator.PhospheneSimulator` with the camera pose *at the frame's stamp*
 (when poses come later than the images, as from RGB-D odometry, a frame is shown at once with
 the pose predicted at its stamp and recomputed when its own pose comes; ``predict_pose`` off:
-it waits for its pose).
+it waits for its pose). Scene modes likewise show each new depth frame at once with the newest
+scene result carried into it, and again with its own when that comes (``carry_scene``,
+:mod:`raspv_perception.scene_carry`).
 A display loop at ``rate`` Hz (50 by default, the temporal model's frame rate) picks the frame
 to show (:class:`~raspv_spv.reprojection.DisplayView`: the newest, or the one captured
 ``device_latency_ms`` ago), re-samples it for the newest head orientation (display-time
