@@ -20,7 +20,8 @@ it, and replaces it with the frame's own result when that arrives:
 
 What is not carried: a new obstacle standing on carried floor becomes ``OBSTACLE`` only where its
 points rise above the band (its margin on the floor waits for the frame's own result); the
-horizontal ``distance`` of obstacles is the old frame's.
+horizontal ``distance`` of obstacles is the old frame's; without a floor, so are the obstacle
+boxes and free floor (given in the support plane's frame).
 """
 from __future__ import annotations
 
