@@ -256,7 +256,7 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         changed = []
         for m, _ in snapshot["phosphenes"]:
             source, scene = stamp_to_seconds(m.source_stamp), stamp_to_seconds(m.scene_stamp)
-            if scene != source and source not in first_carried:
+            if 0 < scene != source and source not in first_carried:     # (0: no scene, a fallback frame)
                 first_carried[source] = np.asarray(m.levels)
             elif scene == source and source in first_carried:
                 changed.append(100.0 * float(np.mean(first_carried.pop(source) != np.asarray(m.levels))))
