@@ -26,7 +26,6 @@ boxes and free floor (given in the support plane's frame).
 from __future__ import annotations
 
 import dataclasses
-from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -34,6 +33,7 @@ import numpy as np
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_perception import scene_labels as L
 from raspv_perception.floor import camera_angles, floor_frame, transform_plane
+from raspv_perception.point_cloud import organised_cloud
 from raspv_perception.scene_config import SceneConfig
 from raspv_perception.scene_structure import ObstacleCluster, SceneStructure
 
@@ -88,17 +88,6 @@ def _moved_obstacle(o: ObstacleCluster, T: np.ndarray, fnew_from_fold: np.ndarra
                                min_floor=moved.min(axis=0), max_floor=moved.max(axis=0))
 
 
-@lru_cache(maxsize=8)
-def _grid_rays(camera: CameraIntrinsics, stride: int) -> np.ndarray:
-    """(h, w, 3) float32 rays (z = 1) of every ``stride``-th pixel, camera frame."""
-    u = (np.arange(0, camera.width, stride, dtype=np.float32) - np.float32(camera.cx)) / np.float32(camera.fx)
-    v = (np.arange(0, camera.height, stride, dtype=np.float32) - np.float32(camera.cy)) / np.float32(camera.fy)
-    rays = np.empty((len(v), len(u), 3), np.float32)
-    rays[..., 0], rays[..., 1], rays[..., 2] = u[None, :], v[:, None], 1.0
-    rays.setflags(write=False)
-    return rays
-
-
 def carry_labels(labels: np.ndarray, depth: np.ndarray, camera: CameraIntrinsics, new_from_old: np.ndarray,
                  floor_plane: np.ndarray | None, stride: int = _DEFAULTS.stride,
                  config: SceneConfig = _DEFAULTS) -> np.ndarray:
@@ -106,28 +95,22 @@ def carry_labels(labels: np.ndarray, depth: np.ndarray, camera: CameraIntrinsics
     ``camera`` its intrinsics) from the old frame's ``labels`` (any size, registered to the old
     depth image) and the motion ``new_from_old`` (C' ← C). ``floor_plane``: the floor in the
     *new* camera frame (normal up), or None without floor."""
-    rays = _grid_rays(camera, stride)
-    z = depth[::stride, ::stride]
-    with np.errstate(invalid="ignore"):
-        valid = (z >= config.min_depth) & (z <= config.max_depth)
-    z = np.where(valid, z, 0.0).astype(np.float32)
-    old_from_new = np.linalg.inv(np.asarray(new_from_old, dtype=np.float64)).astype(np.float32)
-    # the new frame's points in the old camera: z·(R·ray) + t
-    p_old = z[..., None] * (rays @ old_from_new[:3, :3].T) + old_from_new[:3, 3]
+    cloud = organised_cloud(depth, camera, stride, config.min_depth, config.max_depth)
+    valid, p_new = cloud.valid, cloud.points                    # NaN where there is no reading
+    old_from_new = np.linalg.inv(np.asarray(new_from_old, dtype=np.float64))
+    u, v, _ = camera.project(_points(old_from_new, p_new.reshape(-1, 3)))
     hl, wl = labels.shape
-    sx, sy = wl / camera.width, hl / camera.height
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv_z = np.where(p_old[..., 2] > 1e-3, 1.0 / p_old[..., 2], np.nan)
-        u = np.rint((camera.fx * p_old[..., 0] * inv_z + camera.cx) * sx)
-        v = np.rint((camera.fy * p_old[..., 1] * inv_z + camera.cy) * sy)
+    with np.errstate(invalid="ignore"):
+        u = np.rint(u * (wl / camera.width)).reshape(valid.shape)
+        v = np.rint(v * (hl / camera.height)).reshape(valid.shape)
         seen = valid & (u >= 0) & (u < wl) & (v >= 0) & (v < hl)
-    out = np.full(z.shape, L.NONE, np.uint8)
+    out = np.full(valid.shape, L.NONE, np.uint8)
     out[seen] = labels[v[seen].astype(np.intp), u[seen].astype(np.intp)]
     unknown = valid & (out == L.NONE)           # came into view, or the old frame had no reading there
-    floorish = np.zeros(z.shape, bool)
+    floorish = np.zeros(valid.shape, bool)
     if floor_plane is not None and np.all(np.isfinite(floor_plane)):
-        n = np.asarray(floor_plane[:3], dtype=np.float32)
-        height = z * (rays @ n) + np.float32(floor_plane[3])          # above the floor [m]
+        z = p_new[..., 2]
+        height = p_new @ np.asarray(floor_plane[:3], dtype=np.float32) + np.float32(floor_plane[3])   # above the floor [m]
         band = np.float32(config.plane_distance) + np.float32(config.plane_distance_quadratic) * z * z
         on_floor = valid & (np.abs(height) <= band)
         was_floor = (out == L.FLOOR) | (out == L.FLOOR_BLOCKED)
