@@ -15,6 +15,7 @@ from sensor_msgs.msg import Image
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_spv import staleness
 
 REPORT_PERIOD_S = 10.0
 
@@ -46,7 +47,7 @@ class SpvDisplay:
             else:
                 shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
                 levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
-                if shown is not None and shown_sim.mode.needs & {"scene", "scene_labels"}:
+                if shown is not None and shown_sim.mode.needs & staleness.SCENE_INPUTS:
                     scene_stamp = self.view.picked.inputs.scene_stamp
             brightness = sim.brightness(levels, frames)
         if stamp is not None:
