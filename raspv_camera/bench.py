@@ -212,9 +212,10 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         infos = probe.subscribe(topics.CAMERA_INFO, CameraInfo)
         scenes = probe.subscribe(topics.SCENE_STRUCTURE, SceneStructureMsg)
         poses = probe.subscribe(topics.CAMERA_POSE, PoseStamped)
-        outputs = {"phosphenes": (frames, lambda m: m.source_stamp),
-                   "own scene": (frames, lambda m: m.source_stamp if m.scene_stamp == m.source_stamp else None),
-                   "scene": (scenes, lambda m: m.header.stamp), "pose": (poses, lambda m: m.header.stamp)}
+        collectors = {"info": infos, "frames": frames, "scenes": scenes, "poses": poses}
+        outputs = {"phosphenes": ("frames", lambda m: m.source_stamp),
+                   "own scene": ("frames", lambda m: m.source_stamp if m.scene_stamp == m.source_stamp else None),
+                   "scene": ("scenes", lambda m: m.header.stamp), "pose": ("poses", lambda m: m.header.stamp)}
         deadline = time.monotonic() + 120
         while True:                  # the first phosphene frame built from a camera frame; or the graph failed
             try:
@@ -223,8 +224,7 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
             except TimeoutError:
                 if not graph.running() or time.monotonic() > deadline:
                     raise GraphFailed(graph.output[-2000:]) from None
-        collectors = [infos] + [c for c, _ in outputs.values()]
-        for c in collectors:
+        for c in collectors.values():
             with c._cond:
                 c.messages.clear(), c.stamps.clear()
         cpu0, t0, ticks0 = graph.cpu_by_kind(), time.monotonic(), graph.machine_ticks()
@@ -232,13 +232,13 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         cpu = (RunningGraph.cpu_share(cpu0, graph.cpu_by_kind(), time.monotonic() - t0) + "; "
                + RunningGraph.machine_share(ticks0, graph.machine_ticks()))
         snapshot = {}
-        for name, c in [("info", infos)] + [(n, c) for n, (c, _) in outputs.items()]:
+        for name, c in collectors.items():
             with c._cond:
                 snapshot[name] = list(zip(c.messages, c.stamps))
         result = {}
-        for name, (_, stamp_of) in outputs.items():
+        for name, (collected, stamp_of) in outputs.items():
             events = sorted([(t, 0, stamp_to_seconds(m.header.stamp)) for m, t in snapshot["info"]]
-                            + [(t, 1, stamp_to_seconds(stamp_of(m))) for m, t in snapshot[name]
+                            + [(t, 1, stamp_to_seconds(stamp_of(m))) for m, t in snapshot[collected]
                                if stamp_of(m) is not None])
             # in arrival order: a frame's latency is from its (latest) arrival to the first
             # output built from it (a looping bag repeats its stamps: each pass counts anew)
@@ -254,14 +254,14 @@ def _graph_latency(source: dict, seconds: float, workdir: Path,
         # frames shown twice, carried then with their own scene: how many phosphenes changed level
         first_carried: dict[float, np.ndarray] = {}
         changed = []
-        for m, _ in snapshot["phosphenes"]:
+        for m, _ in snapshot["frames"]:
             source, scene = stamp_to_seconds(m.source_stamp), stamp_to_seconds(m.scene_stamp)
             if 0 < scene != source and source not in first_carried:     # (0: no scene, a fallback frame)
                 first_carried[source] = np.asarray(m.levels)
             elif scene == source and source in first_carried:
                 changed.append(100.0 * float(np.mean(first_carried.pop(source) != np.asarray(m.levels))))
         result["changed"] = changed
-        result["scene core"] = [float(m.processing_ms) for m, _ in snapshot["scene"]]
+        result["scene core"] = [float(m.processing_ms) for m, _ in snapshot["scenes"]]
         return result, graph.output + f"\nCPU (of one core): {cpu}"
     finally:
         probe.close()
