@@ -233,9 +233,11 @@ class Probe:
         self._rclpy.try_shutdown(context=self.context)
         self._thread.join(timeout=3.0)
 
-    def subscribe(self, topic: str, msg_type: type, qos: Any = None) -> Collector:
+    def subscribe(self, topic: str, msg_type: type, qos: Any = None, wait_for_publishers: int = 0,
+                  timeout: float = 30.0) -> Collector:
         """Start collecting ``topic``; by default with a QoS that matches any publisher
-        (best-effort reliability is compatible with reliable publishers)."""
+        (best-effort reliability is compatible with reliable publishers). Optionally wait until
+        ``wait_for_publishers`` publishers matched, for a test that counts what one burst delivers."""
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
         if qos is None:
@@ -243,6 +245,11 @@ class Probe:
         col = Collector()
         col.subscription = self.node.create_subscription(msg_type, topic, col._add, qos)
         self._collectors.append(col)
+        deadline = time.monotonic() + timeout
+        while col.subscription.get_publisher_count() < wait_for_publishers:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no publisher matched {topic} within {timeout:.0f} s")
+            time.sleep(0.05)
         return col
 
     def unsubscribe(self, col: Collector) -> None:
