@@ -239,7 +239,6 @@ class DisplayView:
         self.frames = FrameHistory()
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
-        self.picked: DisplayFrame | None = None    # the frame the last levels_at showed
 
     def configure(self, reprojection: bool, latency_ms: float) -> None:
         self.reprojection, self.latency_s = reprojection, latency_ms / 1000.0
@@ -252,12 +251,12 @@ class DisplayView:
         """The newest frame added (whatever the device latency), or None."""
         return self.frames.newest()
 
-    def levels_at(self, sim, map_id: int, display_stamp: float) -> tuple[np.ndarray, float] | None:
-        """(levels (N,) uint8, the frame's capture stamp) to show at ``display_stamp`` with
+    def levels_at(self, sim, map_id: int, display_stamp: float) -> tuple[np.ndarray, DisplayFrame] | None:
+        """(levels (N,) uint8, the frame they show: its capture stamp, inputs) at ``display_stamp`` with
         simulator ``sim`` (a :class:`~raspv_spv.simulator.PhospheneSimulator`) and map
         ``map_id``; None when no frame of this map is due yet, or the current mode cannot run
         on it (a scene mode switched on before the scene arrived)."""
-        frame = self.picked = self.frames.pick(display_stamp, self.latency_s)
+        frame = self.frames.pick(display_stamp, self.latency_s)
         if frame is None:
             return None
         if (frame.map_id != map_id or frame.levels.shape != (sim.count,)) and frame.simulator in (sim, None):
@@ -268,18 +267,18 @@ class DisplayView:
             if R is not None and rotation_angle_deg(R) < MIN_TURN_DEG:
                 R = None
         if R is None and (frame.simulator is sim or frame.simulator is None):
-            return frame.levels, frame.stamp                     # as captured, by this very mode
+            return frame.levels, frame                           # as captured, by this very mode
         last = self._last
         if last is not None and last[0] is sim and last[1] is frame and _same_turn(last[2], R):
-            return last[3], frame.stamp
+            return last[3], frame
         try:
             levels = sim.levels(frame.inputs, capture_from_display=R)
         except ValueError:              # a mode this frame cannot feed (InputError is a ValueError)
-            return (frame.levels, frame.stamp) if frame.simulator in (sim, None) else None
+            return (frame.levels, frame) if frame.simulator in (sim, None) else None
         self._last = (sim, frame, R, levels)
         if R is not None:
             self.turned_ticks += 1
-        return levels, frame.stamp
+        return levels, frame
 
 
 def _same_turn(a: np.ndarray | None, b: np.ndarray | None) -> bool:

@@ -46,9 +46,13 @@ class SpvDisplay:
                 levels, source_stamp = no_data.levels(t0), 0.0
             else:
                 shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
-                levels, source_stamp = shown if shown is not None else (np.zeros(sim.count, np.uint8), 0.0)
-                if shown is not None and shown_sim.mode.needs & staleness.SCENE_INPUTS:
-                    scene_stamp = self.view.picked.inputs.scene_stamp
+                if shown is None:
+                    levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
+                else:
+                    levels, shown_frame = shown
+                    source_stamp = shown_frame.stamp
+                    if shown_sim.mode.needs & staleness.SCENE_INPUTS:
+                        scene_stamp = shown_frame.inputs.scene_stamp
             brightness = sim.brightness(levels, frames)
         if stamp is not None:
             source_stamp = stamp                    # headless: the frame answers this input

@@ -213,8 +213,8 @@ def test_display_view_resamples_the_last_frame_for_the_newest_head(sim):
     view.tracker.add_head(0.9, head_q(0.0))
     view.tracker.add_head(1.0, head_q(0.0))                             # the head when the frame was taken
     view.add_frame(DisplayFrame(1.0, inputs, captured, 1))
-    levels, stamp = view.levels_at(sim, 1, 1.02)
-    assert stamp == 1.0 and levels is captured                          # head still: as captured
+    levels, frame = view.levels_at(sim, 1, 1.02)
+    assert frame.stamp == 1.0 and levels is captured                          # head still: as captured
     view.tracker.add_head(1.03, head_q(8.0))
     levels, _ = view.levels_at(sim, 1, 1.04)
     assert np.array_equal(levels, sim.levels(inputs, capture_from_display=camera_turn(8.0)))
@@ -236,8 +236,8 @@ def test_device_latency_shows_the_scene_as_captured_that_long_ago(sim):
         view.add_frame(DisplayFrame(t, inputs[t], sim.levels(inputs[t]), 1))
         view.tracker.add_head(t + 0.01, head_q(2.0 * k))                # the head keeps turning
     assert view.levels_at(sim, 1, 1.05) is None                         # nothing captured by 0.95 s
-    levels, stamp = view.levels_at(sim, 1, 1.32)
-    assert stamp == 1.20                                                # the newest captured ≤ 1.32 − 0.1
+    levels, frame = view.levels_at(sim, 1, 1.32)
+    assert frame.stamp == 1.20                                          # the newest captured ≤ 1.32 − 0.1
     # turned from the head at 1.20 (7.6°: between 6° sent at 1.16 and 8° at 1.21) to the head at
     # 1.22 (8.4°), not to the newest (14°)
     R = view.tracker.capture_from_display(1.20, 1.22)
@@ -264,8 +264,8 @@ def test_a_mode_changed_at_run_time_shows_on_the_last_frame_at_once(sim):
     inputs = FrameInputs(color=textured(K), camera=K, stamp=1.0)
     view.add_frame(DisplayFrame(1.0, inputs, sim.levels(inputs), 1, sim))
     edges = PhospheneSimulator(spv_config("optimist", width=400, mode="edges", temporal=False))
-    levels, stamp = view.levels_at(edges, 1, 1.02)
-    assert stamp == 1.0 and np.array_equal(levels, edges.levels(inputs))
+    levels, frame = view.levels_at(edges, 1, 1.02)
+    assert frame.stamp == 1.0 and np.array_equal(levels, edges.levels(inputs))
     assert view.levels_at(edges, 1, 1.04)[0] is levels                  # computed once
     chess = PhospheneSimulator(spv_config("optimist", width=400, mode="chess_floor", temporal=False))
     assert view.levels_at(chess, 1, 1.06) is None                       # no scene in this frame yet
