@@ -194,6 +194,15 @@ class Collector:
                 self._cond.wait(min(left, 0.2))
 
 
+def _wait_for_match(count: Callable[[], int], wanted: int, failure: str, timeout: float) -> None:
+    """Poll ``count()`` (matched publishers or subscriptions) until it reaches ``wanted``."""
+    deadline = time.monotonic() + timeout
+    while count() < wanted:
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{failure} within {timeout:.0f} s")
+        time.sleep(0.05)
+
+
 class Probe:
     """An rclpy node spinning in a background thread of the test process."""
 
@@ -245,11 +254,8 @@ class Probe:
         col = Collector()
         col.subscription = self.node.create_subscription(msg_type, topic, col._add, qos)
         self._collectors.append(col)
-        deadline = time.monotonic() + timeout
-        while col.subscription.get_publisher_count() < wait_for_publishers:
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"no publisher matched {topic} within {timeout:.0f} s")
-            time.sleep(0.05)
+        _wait_for_match(col.subscription.get_publisher_count, wait_for_publishers,
+                        f"no publisher matched {topic}", timeout)
         return col
 
     def unsubscribe(self, col: Collector) -> None:
@@ -279,11 +285,7 @@ class Probe:
 
         pub = self.node.create_publisher(msg_type, topic, qos or COMMAND_QOS)
         self._publishers.append(pub)
-        deadline = time.monotonic() + timeout
-        while pub.get_subscription_count() < wait_for_subscribers:
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"no subscriber matched {topic} within {timeout:.0f} s")
-            time.sleep(0.05)
+        _wait_for_match(pub.get_subscription_count, wait_for_subscribers, f"no subscriber matched {topic}", timeout)
         return pub
 
     def _param_call(self, target: str, call: Callable, timeout: float) -> Any:

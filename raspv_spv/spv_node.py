@@ -306,7 +306,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         plan, sim, _ = self._shown_for(sim, time.monotonic())   # a fallback while inputs are stale
         if plan.no_data:
             return
-        scene_inputs = [n for n in ("scene", "scene_labels") if n in sim.needs]
+        scene_inputs = sorted(staleness.SCENE_INPUTS & sim.needs)
         if scene_inputs:
             # scene modes run when the scene node's outputs of one depth frame are all in; with
             # carry_scene a newer depth frame is shown at once with them carried into it
@@ -339,9 +339,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             if not self._pending_shown:
                 self._finish_frame(self._pending)
             self._pending = None
-        newest_pose = self.view.tracker.newest_camera_pose_stamp()
-        if ("camera_pose" in sim.needs | sim.optional_inputs and newest_pose is not None
-                and newest_pose < inputs.stamp - POSE_TOLERANCE_S):
+        if "camera_pose" in sim.needs | sim.optional_inputs and self._pose_comes_later(inputs.stamp):
             # poses come, later than the images (RGB-D odometry): shown now with the pose
             # predicted at its stamp and recomputed when its own comes (on_pose), or waiting for it
             if self.params["predict_pose"] and not self.params["headless"]:
@@ -378,9 +376,13 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
                                scene.floor_plane if scene is not None and scene.floor_found else None)
         inputs = FrameInputs(color=self.color, depth=depth, camera=self.intrinsics, stamp=new, scene=scene,
                              scene_labels=carried, scene_stamp=old, extras=dict(self.extras))
-        newest_pose = tracker.newest_camera_pose_stamp()
-        self._finish_frame(inputs, predicted=newest_pose is not None and newest_pose < new - POSE_TOLERANCE_S)
+        self._finish_frame(inputs, predicted=self._pose_comes_later(new))
         return True
+
+    def _pose_comes_later(self, stamp: float) -> bool:
+        """Camera poses come, and the one of ``stamp`` [s] is not in yet (RGB-D odometry lags the images)."""
+        newest_pose = self.view.tracker.newest_camera_pose_stamp()
+        return newest_pose is not None and newest_pose < stamp - POSE_TOLERANCE_S
 
     def _finish_frame(self, inputs: FrameInputs, predicted: bool = False) -> None:
         """Levels of a complete frame, with the camera pose at its stamp (``predicted``: continued
