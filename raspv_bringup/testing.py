@@ -216,6 +216,7 @@ class Probe:
         self.node = rclpy.create_node(f"{name}_{os.getpid()}", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self._closing = False
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
         self._publishers: list[Any] = []
@@ -231,12 +232,20 @@ class Probe:
         self._publishers, self._collectors = [], []
 
     def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # context shut down
-            pass
+        """Spin until :meth:`close`. An error inside one spin (a subscription destroyed by
+        :meth:`release` while the executor waits on it) is reported and spinning goes on: one
+        escaping ``executor.spin()`` used to end this thread silently, and every later test of the
+        session then timed out waiting for messages."""
+        while not self._closing and self.context.ok():
+            try:
+                self.executor.spin_once(timeout_sec=0.1)
+            except Exception as exc:
+                if self._closing or not self.context.ok():
+                    break
+                print(f"probe: {type(exc).__name__} while spinning: {exc}; spinning on", file=sys.stderr, flush=True)
 
     def close(self) -> None:
+        self._closing = True
         self.executor.shutdown(timeout_sec=2.0)
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
