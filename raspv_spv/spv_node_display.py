@@ -64,6 +64,7 @@ class SpvDisplay:
             msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
             msg.data = array.array("B", image.tobytes())
         frame = PhospheneFrame(header=header, map_id=map_id, mode=plan.mode, overlays=list(plan.overlays),
+                               configured_mode=sim.config.mode, configured_overlays=list(sim.config.overlays),
                                temporal=sim.temporal is not None)
         frame.source_stamp = self.header("", source_stamp).stamp
         frame.scene_stamp = self.header("", scene_stamp).stamp
