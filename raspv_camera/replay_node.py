@@ -79,6 +79,7 @@ class ReplayNode(RaspvNode):
         self._reported = False
         if p["paused"]:
             self.player.set_paused(True)
+            self.announce_source("paused")      # a known pause: consumers hold the last frame
         self.create_timer(2.0, self._check_other_publishers)
         self._checks_left = 3
         self._thread = threading.Thread(target=self._play, name="replay", daemon=True)
@@ -119,6 +120,7 @@ class ReplayNode(RaspvNode):
             self.get_logger().error(f"playback stopped: {exc}")
             self.report = None
         if not self.player.stop_requested:
+            self.announce_source("down")        # the end of the recording: nothing more will come
             self._log_report()
             if self.params["at_end"] == "exit":
                 self.context.try_shutdown()
@@ -165,6 +167,7 @@ class ReplayNode(RaspvNode):
             self.player.set_rate(changes["rate"])
         if "paused" in changes:
             self.player.set_paused(changes["paused"])
+            self.announce_source("paused" if changes["paused"] else "delivering")
         if "loop" in changes:
             self.player.options.loop = changes["loop"]
         return None
