@@ -39,6 +39,7 @@ KNOWN_TOPICS: dict[str, tuple[str, bool]] = {
     T.SPV_IMAGE: ("sensor_msgs/msg/Image", False),
     T.SPV_FRAME: ("raspv_msgs/msg/PhospheneFrame", False),
     T.SPV_MAP: ("raspv_msgs/msg/PhospheneMap", True),
+    T.SPV_SPRITES: ("raspv_msgs/msg/PhospheneSprites", True),
     T.SPV_STATUS: ("std_msgs/msg/String", True),
     T.CLOCK: ("rosgraph_msgs/msg/Clock", False),
     T.EXPERIMENT_INSTRUCTIONS: ("std_msgs/msg/String", True),

@@ -40,6 +40,7 @@ NAV_OBSTACLE_LAYER = "/nav/obstacle_layer"  # nav_msgs/OccupancyGrid, live obsta
 SPV_IMAGE = "/spv/image"                    # sensor_msgs/Image mono8 (or rgb8 green channel)
 SPV_FRAME = "/spv/frame"                    # raspv_msgs/PhospheneFrame
 SPV_MAP = "/spv/map"                        # raspv_msgs/PhospheneMap, transient-local
+SPV_SPRITES = "/spv/sprites"                # raspv_msgs/PhospheneSprites, transient-local: what the levels stream draws with
 SPV_STATUS = "/spv/status"                  # std_msgs/String JSON, latched: what the display shows and which inputs are stale
 
 CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; sim: simulation time)

@@ -58,7 +58,7 @@ from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_common.thread_priority import normal_priority
 from raspv_common.startup_timing import startup_mark
-from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
+from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, PhospheneSprites, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_carry import carry_labels, structure_seen_from
@@ -74,7 +74,8 @@ from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
 from raspv_spv.reprojection import DisplayFrame, DisplayView
 from raspv_spv.simulator import InputError, PhospheneSimulator
-from raspv_spv.spv_node_rebuild import _BUILD_ERRORS, SpvReconfiguration, _reason, _Rebuild, build_simulator
+from raspv_spv.spv_node_rebuild import (_BUILD_ERRORS, SpvReconfiguration, _reason, _Rebuild, build_simulator,
+                                        drawing_spec)
 from raspv_spv.spv_params import PARAMS
 
 HEAD_POKE_COS = float(np.cos(np.radians(0.1) / 2))  # a head turn of more than 0.1° is shown at once
@@ -97,7 +98,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self._sim_lock = threading.Lock()
         # run-time changes: checked at once, built in the background, swapped in by _swap_in
         self._applied_params = dict(self.params)
-        self._requested = (self.sim.config.map_spec(), self.map_id)
+        self._requested = (drawing_spec(self.sim.config), self.map_id)
         self._swap_pending = self._map_pending = False     # ROS-side follow-ups of a swap
         self._failed: tuple[_Rebuild, Exception] | None = None
         self._builder = BackgroundBuilder(self._build, self._swap_in, self._build_failed, name="spv-build")
@@ -129,6 +130,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self.pub_image = self.create_publisher(Image, topics.SPV_IMAGE, SENSOR_QOS)
         self.pub_frame = self.create_publisher(PhospheneFrame, topics.SPV_FRAME, SENSOR_QOS)
         self.pub_map = self.create_publisher(PhospheneMap, topics.SPV_MAP, LATCHED_QOS)
+        self.pub_sprites = self.create_publisher(PhospheneSprites, topics.SPV_SPRITES, LATCHED_QOS)
         self.pub_status = self.create_publisher(String, topics.SPV_STATUS, LATCHED_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self._subs: dict[str, object] = {}
@@ -478,6 +480,10 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             if self._stale_logged:
                 self._stale_logged = False
                 self.get_logger().info(f"inputs back: showing mode {configured_mode} again")
+        elif all(self.staleness.never_arrived(n) for n in plan.stale):      # starting: not a fault
+            self._stale_logged = True
+            self.get_logger().info(f"waiting for {', '.join(sorted(plan.stale))}: showing "
+                                   f"{plan.describe(configured_mode)} until it comes")
         elif now - self._plan_logged >= 2.0:
             self._plan_logged, self._stale_logged = now, True
             what = ", ".join(self.staleness.describe(n, now, producers.get(n, staleness.UNKNOWN))

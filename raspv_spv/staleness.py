@@ -133,7 +133,8 @@ class StalenessMonitor:
     the watched set changes.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, monitored: frozenset[str] = MONITORED) -> None:
+        self.monitored = frozenset(monitored)    # the input names it watches (others are ignored)
         self._clocks: dict[str, _InputClock] = {}
         self._stale: frozenset[str] = frozenset()
         self.episodes = 0                        # times an input that had arrived went stale
@@ -141,11 +142,11 @@ class StalenessMonitor:
 
     def watch(self, names: Iterable[str], expected_with: dict[str, str] | None = None,
               required: Iterable[str] = ()) -> None:
-        """Watch ``names`` (those not in :data:`MONITORED` are ignored); clocks of inputs still
+        """Watch ``names`` (those not in ``monitored`` are ignored); clocks of inputs still
         watched are kept, the others forgotten. ``expected_with`` {input: other input}: an input
         that never arrived is stale once the other one has been arriving for longer than its
         bound. ``required``: inputs stale while they never arrived (the mode's camera)."""
-        wanted = MONITORED.intersection(names)
+        wanted = self.monitored.intersection(names)
         required = set(required)
         clocks = {n: self._clocks.get(n) or _InputClock() for n in sorted(wanted)}
         for name, clock in clocks.items():
@@ -195,6 +196,11 @@ class StalenessMonitor:
                     clock.recovering = True
             self._stale = new
         return self._stale
+
+    def never_arrived(self, name: str) -> bool:
+        """True while watched input ``name`` has not delivered a first message."""
+        clock = self._clocks.get(name)
+        return clock is not None and clock.last_s is None
 
     def describe(self, name: str, now_s: float, producer: str = UNKNOWN) -> str:
         """'scene (nothing for 0.31 s; expected every 0.10 s; its node gone)' for logs."""
