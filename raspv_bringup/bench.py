@@ -15,6 +15,7 @@ BENCHES: dict[str, str] = {
     "camera": "raspv_camera.bench",
     "hmd": "raspv_hmd.bench",
     "e2e": "raspv_hmd.e2e_bench",
+    "qoe": "raspv_hmd.qoe_bench",
     "seg": "raspv_perception.segmentation_bench",
     "nav": "raspv_nav.bench",
     "restart": "raspv_bringup.restart_bench",

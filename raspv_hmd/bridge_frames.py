@@ -88,12 +88,20 @@ class BridgeFrames:
             self._atlas = None
             self.server.levels_unavailable(str(exc))
         else:
-            self.server.submit_sprites(msg.map_id, sprites_message(atlas))
             self._atlas = atlas
+            self._offer_sprites()
         self._clients_changed.trigger()
 
     def on_map(self, msg: PhospheneMap) -> None:
         self._map_msg = msg
+        self._offer_sprites()
+
+    def _offer_sprites(self) -> None:
+        """Hand the clients the atlas of the current map with its no-data ring (both latched
+        topics in, either order)."""
+        atlas, ring = self._atlas, self._ring_pattern()
+        if atlas is not None and ring is not None and ring[0] == atlas.map_id:
+            self.server.submit_sprites(atlas.map_id, sprites_message(atlas, ring[1].mask))
 
     def on_frame(self, msg: PhospheneFrame) -> None:
         self.spv_frames.arrived(SPV_INPUT, time.monotonic())

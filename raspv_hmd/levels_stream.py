@@ -14,7 +14,9 @@ Messages (little-endian; the reference is docs/hmd.md "Levels stream"):
 
 - sprites (binary, sent before the first frame of a new map): :data:`SPRITES_HEADER`, then
   ``patches`` × 8 int32 (column, grid 0 coarse / 1 fine, x, y, w, h on that grid, atlas x, atlas y),
-  then the atlas, ``atlas_h × atlas_w`` float16 (sprite values, 255 at full brightness);
+  then the atlas, ``atlas_h × atlas_w`` float16 (sprite values, 255 at full brightness), then
+  u32 ``N`` and N uint8: the no-data ring's phosphenes (1), which the client blinks itself when
+  frames stop (``N`` = 0: no ring known);
 - a frame: the usual frame header (:data:`raspv_hmd.protocol.FRAME_HEADER`, format
   :data:`~raspv_hmd.protocol.FORMAT_LEVELS`), then :data:`LEVELS_HEADER` and ``N`` uint16 weights
   (weight × :data:`WEIGHT_SCALE`) and, for sprite models with one sprite per level, ``N`` uint8
@@ -40,29 +42,36 @@ FRAME_FALLBACK = 1              # the frame shows a fallback, not the configured
 FRAME_NO_DATA = 2               # the frame is the no-data ring
 
 
-def sprites_message(atlas: SpriteAtlas) -> bytes:
-    """The sprites message of ``atlas`` (see the module docstring)."""
+def sprites_message(atlas: SpriteAtlas, ring: np.ndarray | None = None) -> bytes:
+    """The sprites message of ``atlas`` and the no-data ring's phosphenes ``ring`` ((N,) bool,
+    :func:`raspv_spv.no_data.ring_mask`: the client draws the ring itself when frames stop
+    coming — the bridge gone — instead of freezing on the last one). See the module docstring."""
     h, w = atlas.atlas.shape
     rows, cols = atlas.coarse_shape
+    ring = np.zeros(0, np.uint8) if ring is None else np.asarray(ring, bool).astype(np.uint8)
     head = SPRITES_HEADER.pack(SPRITES_MAGIC, P.PROTOCOL_VERSION, atlas.levels, int(atlas.green), atlas.num_levels,
                                atlas.map_id, atlas.width, atlas.height, atlas.scale, cols, rows, len(atlas.patches),
                                w, h)
-    return head + atlas.patches.astype("<i4").tobytes() + atlas.atlas.astype("<f2").tobytes()
+    return (head + atlas.patches.astype("<i4").tobytes() + atlas.atlas.astype("<f2").tobytes()
+            + struct.pack("<I", ring.size) + ring.tobytes())
 
 
-def parse_sprites_message(data: bytes | memoryview) -> SpriteAtlas:
-    """A sprites message → the atlas (ProtocolError when inconsistent)."""
+def parse_sprites_message(data: bytes | memoryview) -> tuple[SpriteAtlas, np.ndarray]:
+    """A sprites message → (the atlas, the ring's phosphenes (N,) bool, maybe empty);
+    ProtocolError when inconsistent."""
     if len(data) < SPRITES_HEADER.size:
         raise P.ProtocolError("bad_sprites", "sprites message shorter than its header")
     (magic, version, levels, flags, num_levels, map_id, width, height, scale, _cols, _rows, n,
      aw, ah) = SPRITES_HEADER.unpack_from(data)
-    expected = SPRITES_HEADER.size + 32 * n + 2 * aw * ah
-    if magic != SPRITES_MAGIC or version != P.PROTOCOL_VERSION or len(data) != expected:
-        raise P.ProtocolError("bad_sprites", f"not a protocol-{P.PROTOCOL_VERSION} sprites message of "
-                                             f"{expected} bytes (magic {bytes(magic)!r}, {len(data)} bytes)")
+    at = SPRITES_HEADER.size + 32 * n + 2 * aw * ah
+    ring_n = struct.unpack_from("<I", data, at)[0] if len(data) >= at + 4 else -1
+    if magic != SPRITES_MAGIC or version != P.PROTOCOL_VERSION or ring_n < 0 or len(data) != at + 4 + ring_n:
+        raise P.ProtocolError("bad_sprites", f"not a protocol-{P.PROTOCOL_VERSION} sprites message "
+                                             f"(magic {bytes(magic)!r}, {len(data)} bytes)")
     table = np.frombuffer(data, "<i4", 8 * n, SPRITES_HEADER.size).reshape(n, 8).astype(np.int32)
     atlas = np.frombuffer(data, "<f2", aw * ah, SPRITES_HEADER.size + 32 * n).reshape(ah, aw).astype(np.float32)
-    return SpriteAtlas(map_id, width, height, scale, levels, num_levels, bool(flags & 1), table, atlas)
+    ring = np.frombuffer(data, np.uint8, ring_n, at + 4).astype(bool)
+    return SpriteAtlas(map_id, width, height, scale, levels, num_levels, bool(flags & 1), table, atlas), ring
 
 
 def pack_levels_payload(map_id: int, weights: np.ndarray, sprite_levels: np.ndarray | None, levels: int,

@@ -44,7 +44,7 @@
     stereo: params.get("stereo") === "1", green: params.get("green") === "1",
     framesReceived: 0, framesShown: 0, lastShownSeq: 0, size: null,
     drawsLevels: !!levels, accumulation: levels ? levels.accumulation : null, spritesMapId: null,
-    framesFallback: 0, framesNoData: 0, lastNoData: false,
+    framesFallback: 0, framesNoData: 0, lastNoData: false, bytesReceived: 0, spritesBytes: 0, localRing: false,
     rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
     head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
     lastStatus: "", xr: false, orientation: false,
@@ -129,12 +129,14 @@
       const sp = RaspvLevels.parseSprites(buf);          // the sprite atlas of a new map (once per map)
       if (!sp) { showMessage("a sprites message could not be read", false); return; }
       lastSprites = sp;
+      S.spritesBytes += buf.byteLength;
       levels.setSprites(sp);
       S.spritesMapId = sp.mapId;
       return;
     }
     if (buf.byteLength < HEADER_BYTES) return;
     S.framesReceived++;
+    S.bytesReceived += buf.byteLength;
     pending = buf;                              // newer frames replace ones not yet decoded
   }
 
@@ -204,7 +206,29 @@
     S.size = `${w}×${h}`;
   }
 
-  function ready(meta) { readySeq = meta.seq; readyMeta = meta; }
+  let lastFrameAt = performance.now();
+  function ready(meta) { readySeq = meta.seq; readyMeta = meta; lastFrameAt = performance.now(); S.localRing = false; }
+
+  // No frame for NO_FRAMES_MS (the bridge or the network gone): never freeze on the last image.
+  // With the levels stream the page blinks the no-data ring itself (its phosphenes came with the
+  // sprites); with images it goes dark.
+  const NO_FRAMES_MS = 500;
+  function watchFrames(now) {
+    if (now - lastFrameAt < NO_FRAMES_MS || !readyMeta) return;
+    if (levels && lastSprites) {
+      const frame = RaspvLevels.ringFrame(lastSprites, now);
+      if (frame && levels.draw(frame)) {
+        S.localRing = true; S.lastNoData = true;
+        readyMeta = { seq: readyMeta.seq, w: lastSprites.width, h: lastSprites.height, stamp: readyMeta.stamp,
+                      fmt: FORMAT_LEVELS, green: lastSprites.green, local: true };
+        lastLevelsFrame = frame;
+        viewDirty = true;
+        return;
+      }
+    }
+    readyMeta = null;                          // images: dark rather than frozen
+    viewDirty = true;
+  }
 
   // ---- drawing ----------------------------------------------------------------------------
   function resize() {
@@ -454,7 +478,7 @@
       const space = await session.requestReferenceSpace("local");
       // the levels stream is drawn in the XR context too (textures are not shared between contexts)
       const xrLevels = levels ? RaspvLevels.create(gl) : null;
-      let xrSprites = null, xrDrawn = 0;
+      let xrSprites = null, xrDrawn = null;
       xrGl = xrLevels ? null : makeQuadRenderer(gl);
       xrSession = session; S.xr = true;
       $("vr").textContent = "Exit VR";
@@ -479,7 +503,7 @@
             const toBoxes = () => eyes.map((vp) => [vp.x, H - vp.y - vp.height, vp.width, vp.height]);
             if (readyMeta.fmt === FORMAT_LEVELS && lastLevelsFrame) {
               if (xrSprites !== lastSprites) { xrLevels.setSprites(lastSprites); xrSprites = lastSprites; }
-              if (xrDrawn !== readySeq) { xrLevels.draw(lastLevelsFrame); xrDrawn = readySeq; }
+              if (xrDrawn !== lastLevelsFrame) { xrLevels.draw(lastLevelsFrame); xrDrawn = lastLevelsFrame; }
               xrLevels.present(toBoxes(), S.green || !!readyMeta.green, layer.framebuffer, H);
             } else {
               xrLevels.presentImage(frameCanvas, toBoxes(), S.green, layer.framebuffer, H);
@@ -556,6 +580,7 @@
       headDirty = false;
     }
     decodePending();
+    watchFrames(now);
     updateStatus(now);
   }
 

@@ -28,9 +28,13 @@ window.RaspvLevels = (() => {
       mapId: u32(8), width: u32(12), height: u32(16), scale: u32(20), coarseW: u32(24), coarseH: u32(28),
       count: u32(32), atlasW: u32(36), atlasH: u32(40) };
     const tableBytes = 32 * sp.count, atlasBytes = 2 * sp.atlasW * sp.atlasH;
-    if (buf.byteLength !== SPRITES_HEADER + tableBytes + atlasBytes) return null;
+    const ringAt = SPRITES_HEADER + tableBytes + atlasBytes;
+    if (buf.byteLength < ringAt + 4) return null;
+    const ringN = dv.getUint32(ringAt, true);
+    if (buf.byteLength !== ringAt + 4 + ringN) return null;
     sp.patches = new Int32Array(buf.slice(SPRITES_HEADER, SPRITES_HEADER + tableBytes));
-    sp.atlas = new Uint16Array(buf.slice(SPRITES_HEADER + tableBytes));
+    sp.atlas = new Uint16Array(buf.slice(SPRITES_HEADER + tableBytes, ringAt));
+    sp.ring = new Uint8Array(buf.slice(ringAt + 4));      // the no-data ring's phosphenes (may be empty)
     return sp;
   }
 
@@ -260,5 +264,19 @@ window.RaspvLevels = (() => {
       },
     };
   }
-  return { contextFor, parseSprites, parseFrame, create, SPRITES_MAGIC };
+  // The no-data ring from the sprites alone (the bridge's frames stopped): its phosphenes at full
+  // level, blinking at 2 Hz like the spv node's (raspv_spv/no_data.py).
+  function ringFrame(sp, nowMs) {
+    if (!sp || !sp.ring || !sp.ring.length) return null;
+    const n = sp.ring.length, on = (nowMs / 1000 * 2) % 1 < 0.5;
+    const weights = new Uint16Array(n), spriteLevels = sp.levels > 1 ? new Uint8Array(n) : null;
+    for (let i = 0; i < n; i++) {
+      if (!on || !sp.ring[i]) continue;
+      weights[i] = WEIGHT_SCALE;
+      if (spriteLevels) spriteLevels[i] = Math.max(1, sp.numLevels - 1);
+    }
+    return { mapId: sp.mapId, count: n, levels: sp.levels, flags: FRAME_NO_DATA, weights, spriteLevels,
+             noData: true, fallback: false };
+  }
+  return { contextFor, parseSprites, parseFrame, create, ringFrame, SPRITES_MAGIC };
 })();

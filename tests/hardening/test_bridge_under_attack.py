@@ -43,7 +43,8 @@ def test_a_headset_gets_in_and_streams_while_the_bridge_is_attacked(graph, probe
     class Port:                                             # what the client helpers need of a server
         port, tcp_port = int(m.group(1)), int(m.group(2))
 
-    pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    # (the bridge subscribes to /spv/image once clients that want images connect)
+    pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS)
     image = array_to_image(np.full((120, 160), 128, np.uint8), "mono8")
 
     async def run():

@@ -30,7 +30,10 @@ def test_the_atlas_draws_what_the_server_draws(device):
     one grey level: the atlas travels as half floats (2^-11 relative) and weights as uint16."""
     sim = PhospheneSimulator(spv_config(device, width=400, temporal=True))
     built = atlas_of(sim, map_id=7)
-    atlas = parse_sprites_message(sprites_message(built))              # as the browser gets it
+    ring = np.zeros(sim.count, bool)
+    ring[::7] = True
+    atlas, ring_back = parse_sprites_message(sprites_message(built, ring))   # as the browser gets it
+    np.testing.assert_array_equal(ring_back, ring)
     via_ros = atlas_from_msg(sprites_to_msg(built, Header(), 7))       # as the bridge gets it
     np.testing.assert_array_equal(via_ros.atlas, atlas.atlas)
     np.testing.assert_array_equal(via_ros.patches, atlas.patches)

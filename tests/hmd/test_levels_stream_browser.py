@@ -1,9 +1,13 @@
 """The levels stream in a real browser (issue 21): chromium draws the phosphenes from one weight per
 phosphene and the sprite atlas, and its image equals the spv node's own rendering of the same frame
-(matched by stamp) for Gaussian, axon-map and biphasic axon-map sprites, switched at run time."""
+(matched by stamp) for Gaussian, axon-map and biphasic axon-map sprites, switched at run time.
+Then the wearer never sees a frozen frame: the spv node killed → the bridge's no-data ring; the
+bridge killed too → the page blinks the ring itself (issue 27, items 1–2)."""
 from __future__ import annotations
 
 import os
+import re
+import signal
 import tempfile
 import time
 
@@ -33,7 +37,8 @@ DEVICES = ("optimist", "argus_ii_axon", "argus_ii_biphasic")   # Gaussian, axon 
 
 
 def test_the_page_draws_what_the_spv_node_renders(graph, probe):
-    g = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "spv"}, {"kind": "bridge"}]},
+    g = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "spv", "restart": True, "spare": False},
+                                    {"kind": "bridge"}]},
                "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120}},
                "spv": {"ros__parameters": {"device": DEVICES[0], "mode": "depth", "max_depth": 4.0, "width": 320,
                                            "rate": 20.0}},
@@ -85,7 +90,32 @@ def test_the_page_draws_what_the_spv_node_renders(graph, probe):
                 probe.unsubscribe(images)
                 assert compared == 3, f"{device}: no lit frame to compare ({report})"
             accumulation = page.evaluate("() => window.raspvClient.accumulation")
+
+            # the spv node killed (restarted cold): the bridge draws the no-data ring meanwhile
+            os.kill(_pid(g, "spv"), signal.SIGKILL)
+            page.wait_for_function("() => window.raspvClient.lastNoData && !window.raspvClient.localRing",
+                                   timeout=10_000)
+            # the bridge killed as well (the graph stops): the page blinks the ring itself
+            os.kill(_pid(g, "bridge"), signal.SIGKILL)
+            page.wait_for_function("() => window.raspvClient.localRing", timeout=10_000)
+            ring = None
+            for _ in range(40):                                   # the ring blinks: catch an "on" phase
+                drawn = page.evaluate("() => window.raspvClient.readImage()")
+                img = np.array(drawn["pixels"], np.uint8).reshape(drawn["height"], drawn["width"])
+                if img.max() > 0:
+                    ring = img
+                    break
+                time.sleep(0.05)
+            assert ring is not None
+            h, w = ring.shape
+            assert ring[h // 4: 3 * h // 4, w // 4: 3 * w // 4].max() == 0      # lit only near the border
         finally:
             context.close()
     print(f"\nlevels stream vs server image (accumulation {accumulation}):\n" + "\n".join(report))
-    assert "Traceback" not in g.output
+
+
+
+def _pid(g, name: str) -> int:
+    """The newest pid of node ``name`` (started, or restarted) in the launcher's lines."""
+    found = re.findall(rf"{name} \(\w+, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)", g.output)
+    return int([a or b for a, b in found][-1])

@@ -73,7 +73,9 @@ def test_parameters_change_at_run_time_and_bad_values_are_refused(graph, probe):
     assert (img.width, img.height) == (200, 120)
     m = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=30, qos=LATCHED_QOS,
                                predicate=lambda m: m.device == "argus_ii" and len(m.x) == 60)
-    assert m.map_id == 4                 # one rebuild per parameter: argus_ii with 200, then the device's 60
+    # one rebuild per parameter, each a new map id (the map or its sprites changed): green output,
+    # argus_ii with 200, then the device's 60
+    assert m.map_id == 5
     [(_, ok, _)] = probe.set_params("spv", {"rate": 30.0})             # a new display timer
     assert ok
     probe.collect(topics.SPV_IMAGE, Image, 10, timeout=30)
