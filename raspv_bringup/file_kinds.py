@@ -147,7 +147,10 @@ def _check_device(value: str, params: dict) -> None:
     if path.suffix in (".yaml", ".yml") and path.is_file():
         data = read_yaml_file(path, "device YAML file")
         if isinstance(data, dict) and isinstance(data.get("layout"), str):
-            _layout_file_is_text(data["layout"])
+            try:
+                _layout_file_is_text(data["layout"])
+            except ValueError as exc:
+                raise ValueError(f"{value}: layout {exc}") from None
     device = load_device(value)
     if device.layout or params.get("layout") or params.get("num_phosphenes"):
         return

@@ -370,7 +370,11 @@ def _tasks(value: Any, path: Path, ck: _Checker) -> list[Task]:
             continue
         start = ck.mapping(body.get("start"), f"{key}.start", "{position: [1.0, 6.0], yaw: 0}")
         ck.keys(start, f"{key}.start", {"position", "yaw"})
-        sx, sy = ck.point(start.get("position"), f"{key}.start.position") if start else (0.0, 0.0)
+        sx, sy = (0.0, 0.0)
+        if start and "position" not in start:
+            ck.fail(f"{key}.start.position", "missing, e.g. position: [1.0, 6.0]")
+        elif start:
+            sx, sy = ck.point(start["position"], f"{key}.start.position")
         yaw = ck.number(start.get("yaw", 0.0), f"{key}.start.yaw", -360, 360) if start else 0.0
         goal = _goal(body.get("goal"), f"{key}.goal", world_ref, ck)
         limit = ck.number(body.get("time_limit", 60.0), f"{key}.time_limit", positive=True)
