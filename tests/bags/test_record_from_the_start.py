@@ -129,8 +129,8 @@ def test_a_recorder_started_on_a_running_graph_captures_from_its_first_second(gr
     """Issue 27: the recorder subscribes before it opens the bag and loads rosbags' types, and
     messages keep the time the middleware received them, so the first message in the bag was
     received before the bag even existed (impossible when the bag came first: then nothing was
-    captured for 1.37-1.52 s at load 1.3-6). Bound: 4 s from the recorder's spawn, a loaded
-    machine's margin over the 0.5-0.7 s measured quiet (2.7-2.8 s at load 11)."""
+    captured for 1.37-1.52 s at load 1.3-6, 6.1-8.4 s at load 11). Bound: 8 s from the
+    recorder's spawn, a loaded machine's margin (2.2-4.1 s measured at load 9-11)."""
     g = graph({"launch": {"nodes": [{"kind": "sim"}]},
                "sim": {"ros__parameters": {"world": "office", "rate": 20.0, "width": 160, "height": 120}}})
     g.wait_for_output(r"first camera frame published", timeout=120)
@@ -146,4 +146,4 @@ def test_a_recorder_started_on_a_running_graph_captures_from_its_first_second(gr
         assert T.COLOR in r.topics
     print(f"first message {first:.3f} s after the recorder's spawn; bag opened at {marks['bag opened']:.3f} s")
     assert first < marks["bag opened"], (first, marks)
-    assert first < 4.0, (first, marks)
+    assert first < 8.0, (first, marks)
