@@ -161,10 +161,12 @@ class ReplayNode(RaspvNode):
     def _say(self, level: str, text: str) -> None:
         """The ROS logger while the context lives; after Ctrl-C shut it down, plain stderr (the
         logger would add "Failed to publish log message to rosout" to every line)."""
-        if self.context.ok():
-            getattr(self.get_logger(), level)(text)
-        else:
+        if not self.context.ok():
             print(f"[{level.upper()}] [{self.get_name()}]: {text}", file=sys.stderr, flush=True)
+        elif level == "warning":      # one call site per severity: rclpy refuses a change between calls
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
 
     # -- graph checks and parameters -----------------------------------------------------------
     def _check_other_publishers(self) -> None:

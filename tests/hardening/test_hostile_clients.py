@@ -223,15 +223,9 @@ def test_a_client_dropped_for_refused_messages_is_closed_promptly_even_if_it_sto
     server = start_server(max_refused=20)
 
     async def run():
-        reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
-        key = base64.b64encode(os.urandom(16)).decode()
-        writer.write((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nUpgrade: websocket\r\n"
-                      f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
-        await writer.drain()
-        assert b" 101 " in await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
-        frames = [P.client_message("hello", name="flooder")] + ["junk"] * 20
-        for text in frames:
-            writer.write(Frame(Opcode.TEXT, text.encode()).serialize(mask=True))
+        reader, writer = await _raw_ws(server, P.client_message("hello", name="flooder"))
+        for _ in range(20):
+            writer.write(Frame(Opcode.TEXT, b"junk").serialize(mask=True))
         await writer.drain()
         # never answer the server's close frame: only the server can end the connection now
         data = b""
