@@ -204,7 +204,10 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
     if kind == "twist":
         return Twist(_number(obj, "linear", -100.0, 100.0), _number(obj, "angular", -100.0, 100.0))
     if kind == "key":
-        return Key(_string(obj, "key", max_length=MAX_KEY_LENGTH))
+        key = _string(obj, "key", max_length=MAX_KEY_LENGTH)
+        if not key:
+            raise ProtocolError("bad_field", f"'key' must name a key, e.g. \"1\" or \"t\"; got {key!r}")
+        return Key(key)
     if kind == "param":
         name = _string(obj, "name")
         value = obj.get("value")

@@ -166,11 +166,13 @@ class _Link(Protocol):
     client closed)."""
 
     transport: str
+    said_bye: bool                       # set by _send_bye: close() then expects only the closing handshake
 
     async def send_text(self, text: str) -> None: ...
     async def send_frame(self, data: bytes) -> None: ...
     async def recv(self) -> str | bytes | None: ...
     async def close(self) -> None: ...
+    def cut(self) -> None: ...
 
 
 class _WebSocketLink:
@@ -178,6 +180,8 @@ class _WebSocketLink:
 
     def __init__(self, ws: ServerConnection) -> None:
         self.ws = ws
+        self.said_bye = False             # the server told the client why it goes (_send_bye)
+        self._receiving = False
 
     async def send_text(self, text: str) -> None:
         await self.ws.send(text)
@@ -186,18 +190,37 @@ class _WebSocketLink:
         await self.ws.send(data)
 
     async def recv(self) -> str | bytes | None:
+        self._receiving = True
         try:
             msg = await self.ws.recv()
         except ConnectionClosed as exc:
             if exc.sent is not None and exc.sent.code == 1009:
                 raise _Drop("oversized", f"message above {HARD_MESSAGE_LIMIT} bytes") from None
             return None
+        finally:
+            self._receiving = False
         if isinstance(msg, bytes):
             raise P.ProtocolError("binary", "clients send JSON text messages, not binary ones")
         return msg
 
     async def close(self) -> None:
-        await self.ws.close()
+        if not self.said_bye or self._receiving:   # receiving elsewhere: that loop cuts (_receive_loop)
+            await self.ws.close()
+            return
+        # after a bye the only answer expected is the closing handshake; a client that sends a
+        # message instead is not listening, and is cut off at once rather than after the timeout
+        closing = asyncio.create_task(self.ws.close())
+        try:
+            await asyncio.wait_for(self.ws.recv(), CLOSE_TIMEOUT_S)
+        except (ConnectionClosed, asyncio.TimeoutError):
+            pass
+        else:
+            self.cut()
+        await closing
+
+    def cut(self) -> None:
+        """Close the connection now (what is buffered is still sent), no closing handshake."""
+        self.ws.transport.close()
 
 
 class _TcpLink:
@@ -205,6 +228,7 @@ class _TcpLink:
 
     def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self.reader, self.writer = reader, writer
+        self.said_bye = False
         writer.transport.set_write_buffer_limits(high=P.MAX_CLIENT_MESSAGE * 16)
 
     async def _write(self, kind: int, data: bytes) -> None:
@@ -235,6 +259,9 @@ class _TcpLink:
             await asyncio.wait_for(self.writer.wait_closed(), CLOSE_TIMEOUT_S)
         except (OSError, asyncio.TimeoutError):
             self.writer.transport.abort()   # the client does not read: do not linger
+
+    def cut(self) -> None:
+        self.writer.transport.close()
 
 
 class _Session:
@@ -745,22 +772,27 @@ class HeadsetServer:
             if not hmac.compare_digest(given.encode(), self.token.encode()):
                 return await self._reject("token", peer, "wrong or missing token", link)
         if len(self._sessions) >= self.config.max_clients and not await self._make_room(hello, peer):
-            return await self._reject("full", peer, f"the server is full ({self.config.max_clients} clients)", link)
+            why = f"the server is full ({self.config.max_clients} clients)"
+            if hello.role == "control":
+                why += ", each controlling or in line for control"
+            return await self._reject("full", peer, why, link)
         return hello
 
     async def _make_room(self, hello: P.Hello, peer: str) -> bool:
-        """A client that wants control always gets a slot: evict a client that does not control,
-        watchers first, then the one that sent a control message least recently (pinging does
-        not count). A watcher evicts nobody. True when a slot is free now."""
+        """Room for a newcomer that wants control, when the server is full: a watcher (a client
+        that neither controls nor wants control) is evicted, the one least recently active
+        first. Clients that want control are in line for it and keep their place: when every
+        slot holds one, the newcomer is refused. A watcher evicts nobody. True when a slot is
+        free now."""
         if hello.role != "control":
             return False
         ctl = self._arbiter.controller
-        candidates = [s for s in self._sessions.values() if s.id != ctl and s.evicted is None]
-        if not candidates:
+        watchers = [s for s in self._sessions.values() if s.id != ctl and not s.wants_control and s.evicted is None]
+        if not watchers:
             return False
-        victim = min(candidates, key=lambda s: (s.wants_control, s.last_active, s.id))
+        victim = min(watchers, key=lambda s: (s.last_active, s.id))
         why = (f"evicted: the server was full ({self.config.max_clients} clients) and a client that wants "
-               f"control ({hello.name or peer}) needed a slot")
+               f"control ({hello.name or peer}) needed a watcher's slot")
         victim.evicted = why
         self._dropped["evicted"] += 1
         self._event(f"client {victim.id} '{victim.name}' {why}")
@@ -782,6 +814,7 @@ class HeadsetServer:
         return None
 
     async def _send_bye(self, link: _Link, reason: str) -> None:
+        link.said_bye = True
         try:
             await asyncio.wait_for(link.send_text(P.server_message("bye", reason=reason)), BYE_TIMEOUT_S)
         except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
@@ -799,6 +832,9 @@ class HeadsetServer:
                 continue
             if raw is None:
                 return "left"
+            if s.evicted is not None:            # told to go, and still sending: not listening
+                s.link.cut()
+                return s.evicted
             s.received += 1
             if not s.take_token(time.monotonic()):
                 await self._refuse(s, P.ProtocolError("rate", f"more than {cfg.max_rate:g} messages/s"))
