@@ -65,7 +65,8 @@ class BridgeNode(BridgeFrames, RaspvNode):
         self.request_id = 0
         self.current: tuple[int, int, float] | None = None      # (request id, client, started)
         self.request_guard = self.create_guard_condition(self._next_request)
-        self.create_timer(0.1, self._check_requests)
+        # requests are checked for time-outs while there are any (an idle timer costs rclpy wake-ups)
+        self._request_timer = self.create_timer(0.1, self._check_requests)
         self._setup_frames()
         callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
                               on_param=self.on_param, on_event=lambda text: self.get_logger().info(text),
@@ -154,6 +155,8 @@ class BridgeNode(BridgeFrames, RaspvNode):
     def _next_request(self) -> None:
         """Start the oldest queued request once the previous one ended and the spv node's
         parameter services are discovered (requests wait up to PARAM_REPLY_TIMEOUT_S for that)."""
+        if self._request_timer.is_canceled():
+            self._request_timer.reset()
         with self.requests_lock:
             if self.current is not None or not self.requests:
                 return
@@ -208,6 +211,8 @@ class BridgeNode(BridgeFrames, RaspvNode):
             self._finish(current[0], f"node {self.spv.target} did not answer (is it running?)", ok=False)
         elif current is None and waiting:
             self._next_request()
+        elif current is None:
+            self._request_timer.cancel()            # idle until the next request (_next_request resets it)
 
     # -- lifecycle --------------------------------------------------------------------------------
     def close(self) -> None:
@@ -220,7 +225,8 @@ class BridgeNode(BridgeFrames, RaspvNode):
                 pass
             stats = server.stats()
             server.stop()
-            print(f"bridge: {self.frames} frames in, {stats.connections} clients served, "
+            self._close_frames()
+            print(f"bridge: {self.frames} frames and {self.images} images in, {stats.connections} clients served, "
                   f"{stats.refused_total} messages refused, {sum(stats.rejected.values())} connections rejected",
                   flush=True)
 

@@ -2,16 +2,17 @@
 // mode keys back to the bridge (protocol reference: docs/hmd.md). Plain JS, no dependencies.
 //
 // URL options: ?token=… (required when the bridge is not on loopback), role=watch,
-// stereo=1, green=1, format=levels|raw|png (default: levels where WebGL 2 can draw them — the page
-// draws the phosphenes itself from one weight per phosphene, levels_renderer.js — else raw/png
-// images), overlay=0, orientation=1 (phone motion sensors turn the head).
+// stereo=1, green=1, format=levels|raw|png (default: levels — the page draws the phosphenes
+// itself from one weight per phosphene, levels_renderer.js; raw/png: images), draw=webgl|cpu (how
+// the page draws levels; default: WebGL with a graphics processor, else its own thread),
+// overlay=0, orientation=1 (phone motion sensors turn the head).
 // Frames: head orientation relative to the avatar base (x forward, y left, z up); roll/pitch/yaw
 // in radians, pitch > 0 looks down, yaw > 0 looks left.
 "use strict";
 (() => {
   const HEADER_BYTES = 40;
   const FORMAT_RAW = 0, FORMAT_PNG = 1, FORMAT_LEVELS = 2;
-  const WINDOW = 2;                          // frames in flight before an ack
+  const WINDOW = 3;                          // frames in flight before an ack (the page shows the newest; 2 starved a 50 Hz stream at a 60 Hz page)
   const LINEAR = 0.5, ANGULAR = 1.0;         // m/s, rad/s (Shift doubles them)
   const TWIST_PERIOD_MS = 100;               // resend while moving (the bridge stops after 0.5 s)
   const DRAG_RAD_PER_PX = 0.25 * Math.PI / 180;
@@ -26,15 +27,22 @@
   const params = new URLSearchParams(location.search);
   const $ = (id) => document.getElementById(id);
   let view = $("view");
-  // The levels stream where WebGL 2 can draw it (unless the URL asks for images); else images.
-  const askedFormat = params.get("format") || "";
-  let levels = null;
+  // The levels stream unless the URL asks for images; drawn with WebGL where a graphics processor
+  // does it, else on the page's thread (WebGL in software costs more than it saves).
+  const askedFormat = params.get("format") || "", askedDraw = params.get("draw") || "";
+  let levels = null, gpuDraw = false;
   if ((askedFormat === "" || askedFormat === "levels") && window.RaspvLevels) {
-    const gl = RaspvLevels.contextFor(view);
-    try { levels = gl ? RaspvLevels.create(gl) : null; } catch (e) { levels = null; }
-    if (gl && !levels) { const fresh = view.cloneNode(true); view.replaceWith(fresh); view = fresh; }
+    if (askedDraw !== "cpu") {
+      const probe = RaspvLevels.contextFor(document.createElement("canvas"));
+      const useGl = probe && (askedDraw === "webgl" || RaspvLevels.hardware(probe));
+      if (probe) { const lose = probe.getExtension("WEBGL_lose_context"); if (lose) lose.loseContext(); }
+      const gl = useGl ? RaspvLevels.contextFor(view) : null;
+      try { levels = gl ? RaspvLevels.create(gl) : null; gpuDraw = !!levels; } catch (e) { levels = null; }
+      if (gl && !levels) { const fresh = view.cloneNode(true); view.replaceWith(fresh); view = fresh; }
+    }
+    if (!levels) { levels = RaspvLevels.createCpu(); RaspvLevels.loadKernels("levels_kernels.wasm"); }
   }
-  const ctx = levels ? null : view.getContext("2d", { alpha: false });
+  const ctx = gpuDraw ? null : view.getContext("2d", { alpha: false });
   const frameCanvas = document.createElement("canvas");       // the newest decoded image frame
   const frameCtx = frameCanvas.getContext("2d");
 
@@ -43,7 +51,8 @@
     connected: false, role: null, clientId: null, format: null, closedFor: null,
     stereo: params.get("stereo") === "1", green: params.get("green") === "1",
     framesReceived: 0, framesShown: 0, lastShownSeq: 0, size: null,
-    drawsLevels: !!levels, accumulation: levels ? levels.accumulation : null, spritesMapId: null,
+    drawsLevels: !!levels, drawer: levels ? (gpuDraw ? "webgl" : "cpu") : null, drawMs: 0, presentMs: 0,
+    get accumulation() { return levels ? levels.accumulation : null; }, spritesMapId: null,
     framesFallback: 0, framesNoData: 0, lastNoData: false, bytesReceived: 0, spritesBytes: 0, localRing: false,
     rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
     head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
@@ -158,7 +167,10 @@
     if (fmt === FORMAT_LEVELS) {
       if (!levels) return;
       const frame = RaspvLevels.parseFrame(buf, HEADER_BYTES);
+      if (!gpuDraw) levels.green = green;
+      const t0 = performance.now();
       if (!frame || !levels.draw(frame)) return;        // drawn into the page's phosphene image
+      S.drawMs = 0.9 * S.drawMs + 0.1 * (performance.now() - t0);
       lastLevelsFrame = frame;
       meta.green = greenFrame;
       S.size = `${w}×${h}`;
@@ -249,11 +261,29 @@
     return [fit(0, 0, width / 2, height), fit(width / 2, 0, width / 2, height)];
   }
 
+  // The page's own drawing of the levels (no WebGL): the canvas takes the image's size (twice as
+  // wide in stereo) and CSS fits it to the window.
+  function presentNative() {
+    const sp = levels.sprites, image = levels.image();
+    const w = sp.width, h = sp.height, eyes = S.stereo ? 2 : 1;
+    if (view.width !== w * eyes || view.height !== h) { view.width = w * eyes; view.height = h; }
+    view.classList.add("native");
+    for (let e = 0; e < eyes; e++) ctx.putImageData(image, e * w, 0);
+  }
+
   function present() {
     if (readySeq <= S.lastShownSeq && !viewDirty) return;
     viewDirty = false;
+    if (!gpuDraw && levels && readyMeta && readyMeta.fmt === FORMAT_LEVELS) {
+      const t0 = performance.now();
+      presentNative();
+      S.presentMs = 0.9 * S.presentMs + 0.1 * (performance.now() - t0);
+      shown();
+      return;
+    }
+    view.classList.remove("native");
     resize();
-    if (levels) {                                 // WebGL: the levels image, or an image frame as a texture
+    if (gpuDraw) {                                // WebGL: the levels image, or an image frame as a texture
       levels.clear(null);
       if (readyMeta) {
         const green = S.green || !!readyMeta.green;
@@ -477,7 +507,7 @@
       session.updateRenderState({ baseLayer: new XRWebGLLayer(session, gl) });
       const space = await session.requestReferenceSpace("local");
       // the levels stream is drawn in the XR context too (textures are not shared between contexts)
-      const xrLevels = levels ? RaspvLevels.create(gl) : null;
+      const xrLevels = levels && gpuDraw ? RaspvLevels.create(gl) : null;
       let xrSprites = null, xrDrawn = null;
       xrGl = xrLevels ? null : makeQuadRenderer(gl);
       xrSession = session; S.xr = true;
@@ -509,6 +539,7 @@
               xrLevels.presentImage(frameCanvas, toBoxes(), S.green, layer.framebuffer, H);
             }
           } else {
+            if (readyMeta.fmt === FORMAT_LEVELS && levels) paintFrameCanvas();   // the page's own drawing
             xrGl.upload(frameCanvas);
             for (const vp of eyes) xrGl.draw(vp.x, vp.y, vp.width, vp.height);
           }
@@ -519,6 +550,12 @@
     } catch (e) {
       showMessage(`VR session failed: ${e.message || e}`, false);
     }
+  }
+
+  function paintFrameCanvas() {                // the page-drawn levels image into frameCanvas (XR upload)
+    const sp = levels.sprites;
+    setFrameSize(sp.width, sp.height);
+    frameCtx.putImageData(levels.image(), 0, 0);
   }
 
   function makeQuadRenderer(gl) {              // one textured quad filling each eye's viewport

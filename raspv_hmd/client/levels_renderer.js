@@ -1,12 +1,17 @@
-// RASPV levels stream, drawn with WebGL 2 (raspv_hmd/levels_stream.py is the reference).
+// RASPV levels stream: the page draws the phosphenes (raspv_spv/sprite_atlas.py is the reference).
 //
 // The bridge sends the sprite atlas once per phosphene map (every sprite as a patch of one
 // half-float texture) and then, per frame, one weight per phosphene. Each frame is drawn as the
-// server's renderer draws it: every lit sprite's patch times its weight, summed in a float
-// framebuffer on the coarse grid (and at full resolution for the fine sprites), the coarse sum
-// upsampled bilinearly (half-pixel centres, edges clamped: OpenCV's INTER_LINEAR), the two added,
-// rounded and saturated to 8 bits. The result is a texture of the phosphene image's own size,
-// presented like the image stream (fitted, stereo, green), or read back by tests.
+// server's renderer draws it: every lit sprite's patch times its weight, summed in floats on the
+// coarse grid (and at full resolution for the fine sprites), the coarse sum upsampled
+// bilinearly (half-pixel centres, edges clamped: OpenCV's INTER_LINEAR), the two added, rounded
+// and saturated to 8 bits. Two drawers with one interface (setSprites, draw, readImage):
+//  - create(gl): WebGL 2, for a browser with a graphics processor (the sums in a float
+//    framebuffer, presented as a texture: fitted, stereo, green);
+//  - createCpu(): typed arrays on the page's own thread, for a browser that renders WebGL in
+//    software (SwiftShader, llvmpipe: there every WebGL frame costs a read-back to the
+//    compositor, measured 76 % of a core for 22 frames/s on this 2-core machine). The image
+//    goes to a 2D canvas of its own size with putImageData; CSS scales it.
 "use strict";
 window.RaspvLevels = (() => {
   const SPRITES_MAGIC = "RSPS", SPRITES_HEADER = 44, LEVELS_HEADER = 12, WEIGHT_SCALE = 16384;
@@ -278,5 +283,174 @@ window.RaspvLevels = (() => {
     return { mapId: sp.mapId, count: n, levels: sp.levels, flags: FRAME_NO_DATA, weights, spriteLevels,
              noData: true, fallback: false };
   }
-  return { contextFor, parseSprites, parseFrame, create, ringFrame, SPRITES_MAGIC };
+  // Half floats → float32, once (the atlas arrives as IEEE binary16 bits).
+  let HALF = null;
+  function halfTable() {
+    if (HALF) return HALF;
+    HALF = new Float32Array(65536);
+    for (let h = 0; h < 65536; h++) {
+      const sign = h & 0x8000 ? -1 : 1, e = (h >> 10) & 31, m = h & 1023;
+      HALF[h] = sign * (e === 0 ? m * 5.960464477539063e-8 : e === 31 ? (m ? NaN : Infinity) : (1 + m / 1024) * 2 ** (e - 15));
+    }
+    return HALF;
+  }
+
+  // The page's drawing kernels (levels_kernels.wat, WebAssembly SIMD): ~10× the speed of the same
+  // loops in JavaScript. Loaded once; until then (or where WebAssembly is not allowed) the
+  // JavaScript loops below draw the same image.
+  let KERNELS = null;
+  async function loadKernels(url) {
+    try {
+      const memory = new WebAssembly.Memory({ initial: 1 });
+      const bytes = await (await fetch(url)).arrayBuffer();
+      const { instance } = await WebAssembly.instantiate(bytes, { env: { memory } });
+      KERNELS = { memory, ...instance.exports };
+    } catch (e) {
+      KERNELS = null;
+    }
+    return KERNELS;
+  }
+
+  const GREY_LUT = new Uint32Array(256), GREEN_LUT = new Uint32Array(256);
+  for (let v = 0; v < 256; v++) { GREY_LUT[v] = 0xff000000 | (v << 16) | (v << 8) | v; GREEN_LUT[v] = 0xff000000 | (v << 8); }
+
+  function createCpu() {
+    let sp = null, colToPatch = null, drawn = 0, green = false, image = null;
+    // typed arrays: in the kernels' memory (k set) or plain JavaScript arrays
+    let k = null, atlasF, acc, fine, out, lut, xs0, xs1, fxs, ys0, ys1, fys;
+    let ptr = {};
+
+    // INTER_LINEAR source columns/rows and weights for an upsampling by an integer factor
+    function axis(n, size, scale, a, b, f) {
+      for (let d = 0; d < n; d++) {
+        const s = (d + 0.5) / scale - 0.5, i = Math.floor(s);
+        f[d] = i < 0 ? 0 : s - i;
+        a[d] = Math.min(Math.max(i, 0), size - 1);
+        b[d] = Math.min(Math.max(i + 1, 0), size - 1);
+      }
+    }
+
+    function layout(s, hasFine) {                       // where every array lives
+      const n = s.width * s.height, cn = s.coarseW * s.coarseH;
+      const sizes = [["lut", 256], ["atlas", s.atlas.length], ["acc", cn], ["fine", hasFine ? n : 0], ["out", n],
+        ["xs0", s.width], ["xs1", s.width], ["fx", s.width], ["ys0", s.height], ["ys1", s.height], ["fy", s.height],
+        ["row", s.coarseW]];
+      k = KERNELS;
+      let bytes = 0;
+      ptr = {};
+      for (const [name, count] of sizes) { ptr[name] = bytes; bytes += 4 * count + 16; }
+      let buf;
+      if (k) {
+        const need = Math.ceil(bytes / 65536) - k.memory.buffer.byteLength / 65536;
+        if (need > 0) k.memory.grow(need);
+        buf = k.memory.buffer;
+      } else {
+        buf = new ArrayBuffer(bytes);
+      }
+      const F = (name, count) => new Float32Array(buf, ptr[name], count), I = (name, count) => new Int32Array(buf, ptr[name], count);
+      lut = new Uint32Array(buf, ptr.lut, 256);
+      atlasF = F("atlas", s.atlas.length); acc = F("acc", cn); fine = hasFine ? F("fine", n) : null;
+      out = new Uint32Array(buf, ptr.out, n);
+      xs0 = I("xs0", s.width); xs1 = I("xs1", s.width); fxs = F("fx", s.width);
+      ys0 = I("ys0", s.height); ys1 = I("ys1", s.height); fys = F("fy", s.height);
+      image = new ImageData(new Uint8ClampedArray(buf, ptr.out, 4 * n), s.width, s.height);
+    }
+
+    function setSprites(s) {
+      sp = s;
+      let maxCol = 0, hasFine = false;
+      for (let p = 0; p < s.count; p++) { maxCol = Math.max(maxCol, s.patches[8 * p]); hasFine = hasFine || s.patches[8 * p + 1] === 1; }
+      colToPatch = new Int32Array(maxCol + 1).fill(-1);
+      for (let p = 0; p < s.count; p++) colToPatch[s.patches[8 * p]] = p;
+      layout(s, hasFine);
+      const H16 = halfTable();
+      for (let i = 0; i < atlasF.length; i++) atlasF[i] = H16[s.atlas[i]];
+      if (s.scale > 1) { axis(s.width, s.coarseW, s.scale, xs0, xs1, fxs); axis(s.height, s.coarseH, s.scale, ys0, ys1, fys); }
+    }
+
+    function addJs(target, tw, p, w) {
+      const P = sp.patches, AW = sp.atlasW;
+      const x = P[8 * p + 2], y = P[8 * p + 3], pw = P[8 * p + 4], ph = P[8 * p + 5], ax = P[8 * p + 6], ay = P[8 * p + 7];
+      for (let j = 0; j < ph; j++) {
+        let o = (y + j) * tw + x, a = (ay + j) * AW + ax;
+        const end = o + pw;
+        while (o < end) target[o++] += w * atlasF[a++];
+      }
+    }
+
+    function composeJs() {                              // (round half to even, as the kernels and OpenCV)
+      const n = out.length, L = lut, rnd = (v) => { const r = Math.round(v); return (r - v === 0.5 && r % 2) ? r - 1 : r; };
+      const q = (v) => { const r = rnd(v); return r < 0 ? 0 : r > 255 ? 255 : r; };
+      if (sp.scale === 1) {
+        for (let i = 0; i < n; i++) out[i] = L[q(acc[i] + (fine ? fine[i] : 0))];
+        return;
+      }
+      const CW = sp.coarseW;
+      for (let y = 0, o = 0; y < sp.height; y++) {
+        const r0 = ys0[y] * CW, r1 = ys1[y] * CW, fy = fys[y], gy = 1 - fy;
+        for (let x = 0; x < sp.width; x++, o++) {
+          const a = xs0[x], b = xs1[x], fx = fxs[x];
+          const top = acc[r0 + a] + (acc[r0 + b] - acc[r0 + a]) * fx;
+          const bottom = acc[r1 + a] + (acc[r1 + b] - acc[r1 + a]) * fx;
+          out[o] = L[q(top * gy + bottom * fy + (fine ? fine[o] : 0))];
+        }
+      }
+    }
+
+    function draw(frame) {                              // → false when the frame is not of these sprites
+      if (!sp || frame.mapId !== sp.mapId) return false;
+      if (k !== KERNELS) setSprites(sp);                // the kernels arrived: move the arrays into their memory
+      acc.fill(0);
+      if (fine) fine.fill(0);
+      if (!k) lut.set(green ? GREEN_LUT : GREY_LUT);
+      const W = frame.weights, L = sp.levels, SL = frame.spriteLevels, P = sp.patches;
+      let n = 0;
+      for (let i = 0; i < frame.count; i++) {
+        if (W[i] === 0) continue;
+        let col = i;
+        if (L > 1) { const l = SL ? SL[i] : 0; if (l === 0) continue; col = i * L + Math.min(l, L) - 1; }
+        const p = col < colToPatch.length ? colToPatch[col] : -1;
+        if (p < 0) continue;
+        const isFine = P[8 * p + 1] === 1, w = W[i] / WEIGHT_SCALE;
+        if (k) {
+          k.add(isFine ? ptr.fine : ptr.acc, isFine ? sp.width : sp.coarseW, ptr.atlas, sp.atlasW,
+                P[8 * p + 2], P[8 * p + 3], P[8 * p + 4], P[8 * p + 5], P[8 * p + 6], P[8 * p + 7], w);
+        } else {
+          addJs(isFine ? fine : acc, isFine ? sp.width : sp.coarseW, p, w);
+        }
+        n++;
+      }
+      if (!k) composeJs();
+      else if (sp.scale === 1) k.compose(ptr.acc, fine ? ptr.fine : 0, out.length, green ? 1 : 0, ptr.out);
+      else k.compose_up(ptr.acc, sp.coarseW, fine ? ptr.fine : 0, sp.width, sp.height, ptr.xs0, ptr.xs1, ptr.fx,
+                        ptr.ys0, ptr.ys1, ptr.fy, green ? 1 : 0, ptr.row, ptr.out);
+      drawn = n;
+      return true;
+    }
+
+    return {
+      get sprites() { return sp; },
+      get drawn() { return drawn; },
+      get accumulation() { return k ? "float32 (WebAssembly SIMD)" : "float32 (JavaScript)"; },
+      set green(g) { green = !!g; },
+      setSprites, draw,
+      image() { return image; },                        // the last image, RGBA (grey or green), for putImageData
+      readImage() {                                     // its grey levels, rows top first
+        if (!image) return null;
+        const px = new Uint8Array(sp.width * sp.height), rgba = image.data, ch = green ? 1 : 0;
+        for (let i = 0; i < px.length; i++) px[i] = rgba[4 * i + ch];
+        return { width: sp.width, height: sp.height, pixels: px };
+      },
+    };
+  }
+
+  // Is this WebGL context drawn by a graphics processor? (Software renderers make the page slower
+  // with WebGL than without it.)
+  function hardware(gl) {
+    const info = gl.getExtension("WEBGL_debug_renderer_info");
+    const name = String(info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER));
+    return !/swiftshader|llvmpipe|softpipe|software|microsoft basic render/i.test(name);
+  }
+
+  return { contextFor, parseSprites, parseFrame, create, createCpu, loadKernels, hardware, ringFrame, SPRITES_MAGIC };
 })();

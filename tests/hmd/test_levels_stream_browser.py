@@ -1,6 +1,8 @@
 """The levels stream in a real browser (issue 21): chromium draws the phosphenes from one weight per
-phosphene and the sprite atlas, and its image equals the spv node's own rendering of the same frame
-(matched by stamp) for Gaussian, axon-map and biphasic axon-map sprites, switched at run time.
+phosphene and the sprite atlas — on the page's thread with the WebAssembly kernels (what a browser
+without a graphics processor does, as here) and with WebGL 2 (forced: software WebGL here) — and
+both images equal the spv node's own rendering of the same frame (matched by stamp) for Gaussian,
+axon-map and biphasic axon-map sprites, switched at run time.
 Then the wearer never sees a frozen frame: the spv node killed → the bridge's no-data ring; the
 bridge killed too → the page blinks the ring itself (issue 27, items 1–2)."""
 from __future__ import annotations
@@ -49,8 +51,11 @@ def test_the_page_draws_what_the_spv_node_renders(graph, probe):
         context = p.chromium.launch_persistent_context(profile, executable_path=CHROMIUM, args=ARGS, headless=True,
                                                        viewport={"width": 640, "height": 480})
         try:
-            page = context.new_page()
-            page.goto(url + "?overlay=0")
+            pages = {}
+            for drawer in ("cpu", "webgl"):
+                pages[drawer] = context.new_page()
+                pages[drawer].goto(url + f"?overlay=0&draw={drawer}")
+            page = pages["cpu"]
             for i, device in enumerate(DEVICES):
                 if i:
                     [(_, ok, why)] = probe.set_params("spv", {"device": device})
@@ -60,58 +65,60 @@ def test_the_page_draws_what_the_spv_node_renders(graph, probe):
                                                predicate=lambda m, d=device: m.device == d)
                 except TimeoutError:
                     raise AssertionError(f"no map of {device}: {g.output[-3000:]}") from None
-                page.wait_for_function(f"() => window.raspvClient.spritesMapId === {m.map_id} && "
-                                       f"window.raspvClient.framesShown > 3 && !window.raspvClient.lastNoData",
-                                       timeout=120_000)
-                assert page.evaluate("() => window.raspvClient.drawsLevels")
+                for drawer, pg in pages.items():
+                    pg.wait_for_function(f"() => window.raspvClient.spritesMapId === {m.map_id} && "
+                                         f"window.raspvClient.framesShown > 3 && !window.raspvClient.lastNoData",
+                                         timeout=120_000)
+                    assert pg.evaluate("() => [window.raspvClient.drawsLevels, window.raspvClient.drawer]") == [True, drawer]
                 # the server's rendering of the same frames (a collector per device: it keeps every image)
                 images = probe.subscribe(topics.SPV_IMAGE, Image, wait_for_publishers=1)
                 images.wait(2, timeout=60)                   # the spv node renders images now
-                compared = 0
-                for _ in range(60):                          # three frames with phosphenes lit
-                    drawn = page.evaluate("() => window.raspvClient.readImage()")
-                    try:                                     # (drawn before the images started: skip it)
-                        server = images.wait(1, timeout=5, predicate=lambda im, t=drawn["stamp"]:
-                                             abs(stamp_to_seconds(im.header.stamp) - t) < 1e-6)[0]
-                    except TimeoutError:
-                        continue
-                    ours = np.array(drawn["pixels"], np.uint8).reshape(drawn["height"], drawn["width"])
-                    theirs = np.frombuffer(bytes(server.data), np.uint8).reshape(server.height, server.width, -1)
-                    theirs = theirs[..., 0 if server.encoding == "mono8" else 1]
-                    diff = np.abs(ours.astype(int) - theirs)
-                    assert diff.max() <= MAX_DIFF and (diff > 0).mean() <= MAX_OFF_SHARE, (device, diff.max(), report)
-                    if theirs.max() > 0:
-                        compared += 1
-                        report.append(f"{device}: max {diff.max()}, {100 * (diff > 0).mean():.2f} % of pixels off, "
-                                      f"peak {int(theirs.max())}")
-                    if compared == 3:
-                        break
-                    time.sleep(0.1)
+                for drawer, pg in pages.items():
+                    compared = 0
+                    for _ in range(60):                      # three frames with phosphenes lit
+                        drawn = pg.evaluate("() => window.raspvClient.readImage()")
+                        try:                                 # (drawn before the images started: skip it)
+                            server = images.wait(1, timeout=5, predicate=lambda im, t=drawn["stamp"]:
+                                                 abs(stamp_to_seconds(im.header.stamp) - t) < 1e-6)[0]
+                        except TimeoutError:
+                            continue
+                        ours = np.array(drawn["pixels"], np.uint8).reshape(drawn["height"], drawn["width"])
+                        theirs = np.frombuffer(bytes(server.data), np.uint8).reshape(server.height, server.width, -1)
+                        theirs = theirs[..., 0 if server.encoding == "mono8" else 1]
+                        diff = np.abs(ours.astype(int) - theirs)
+                        assert diff.max() <= MAX_DIFF and (diff > 0).mean() <= MAX_OFF_SHARE, (device, drawer, diff.max())
+                        if theirs.max() > 0:
+                            compared += 1
+                            report.append(f"{device}, {drawer}: max {diff.max()}, {100 * (diff > 0).mean():.2f} % of "
+                                          f"pixels off, peak {int(theirs.max())}")
+                        if compared == 3:
+                            break
+                        time.sleep(0.1)
+                    assert compared == 3, f"{device}, {drawer}: no lit frame to compare ({report})"
                 probe.unsubscribe(images)
-                assert compared == 3, f"{device}: no lit frame to compare ({report})"
+            pages["webgl"].close()
             accumulation = page.evaluate("() => window.raspvClient.accumulation")
+            assert "WebAssembly" in accumulation                      # the kernels loaded (CSP, MIME type)
 
-            # the spv node killed (restarted cold): the bridge draws the no-data ring meanwhile
-            os.kill(_pid(g, "spv"), signal.SIGKILL)
-            page.wait_for_function("() => window.raspvClient.lastNoData && !window.raspvClient.localRing",
-                                   timeout=10_000)
-            # the bridge killed as well (the graph stops): the page blinks the ring itself
-            os.kill(_pid(g, "bridge"), signal.SIGKILL)
-            page.wait_for_function("() => window.raspvClient.localRing", timeout=10_000)
-            ring = None
-            for _ in range(40):                                   # the ring blinks: catch an "on" phase
-                drawn = page.evaluate("() => window.raspvClient.readImage()")
-                img = np.array(drawn["pixels"], np.uint8).reshape(drawn["height"], drawn["width"])
-                if img.max() > 0:
-                    ring = img
-                    break
-                time.sleep(0.05)
-            assert ring is not None
-            h, w = ring.shape
-            assert ring[h // 4: 3 * h // 4, w // 4: 3 * w // 4].max() == 0      # lit only near the border
+            # the spv node hangs (stopped: a restart would bring a new map): the bridge draws the no-data ring
+            spv, bridge = _pid(g, "spv"), _pid(g, "bridge")
+            os.kill(spv, signal.SIGSTOP)
+            try:
+                page.wait_for_function("() => window.raspvClient.lastNoData && !window.raspvClient.localRing",
+                                       timeout=10_000)
+                from_bridge = _lit_image(page, "c.lastNoData && !c.localRing")
+                # the bridge hangs as well: the page blinks the same ring itself
+                os.kill(bridge, signal.SIGSTOP)
+                page.wait_for_function("() => window.raspvClient.localRing", timeout=10_000)
+                own = _lit_image(page, "c.localRing")
+            finally:
+                for pid in (spv, bridge):
+                    os.kill(pid, signal.SIGCONT)
+            assert from_bridge is not None and own is not None
+            assert np.array_equal(own, from_bridge)             # the ring of the map the page has
         finally:
             context.close()
-    print(f"\nlevels stream vs server image (accumulation {accumulation}):\n" + "\n".join(report))
+    print(f"\nlevels stream vs server image (page thread: {accumulation}):\n" + "\n".join(report))
 
 
 
@@ -119,3 +126,15 @@ def _pid(g, name: str) -> int:
     """The newest pid of node ``name`` (started, or restarted) in the launcher's lines."""
     found = re.findall(rf"{name} \(\w+, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)", g.output)
     return int([a or b for a, b in found][-1])
+
+
+def _lit_image(page, state: str):
+    """The page's image in an "on" phase of the blinking ring while ``state`` holds (None if none within 2 s)."""
+    for _ in range(40):
+        drawn = page.evaluate(f"() => {{ const c = window.raspvClient; return {state} ? c.readImage() : null; }}")
+        if drawn is not None:
+            img = np.array(drawn["pixels"], np.uint8).reshape(drawn["height"], drawn["width"])
+            if img.max() > 0:
+                return img
+        time.sleep(0.05)
+    return None
