@@ -1,7 +1,9 @@
 """``navigate``: the default virtual patient — walks to a goal seeing only the phosphenes (no rclpy).
 
 What it knows besides the phosphene image (``/spv/frame``, ``/spv/map``) is what a person in
-the experiment knows: its eye height and the head pitch it holds, where the goal is relative to
+the experiment knows: which representation it is shown (the mode and overlays named in each
+frame, as a subject is told the condition: a trail is looked for only when the ``path`` overlay
+is on), its eye height and the head pitch it holds, where the goal is relative to
 where it started (the instructions: "the far end of the hallway", "the bin in the meeting room",
 as ``goal`` [m] in the start frame: x ahead, y left), and how it moved since — by path
 integration of the commands its body carried out (motor noise is not felt, so the estimate
@@ -9,7 +11,7 @@ drifts as a person's does). It does not see the world, the camera or the map.
 
 Each frame:
 
-1. **A trail** (the navigation path overlay): the brightest phosphenes standing clearly apart
+1. **A trail** (only with the navigation path overlay): the brightest phosphenes standing clearly apart
    from the rest (few phosphenes between half and ``bright_ratio`` of the brightest) are a
    trail on the floor; it is followed by pure pursuit on the point about ``lookahead`` m ahead,
    and its direction remembered: when it leaves the view the subject turns back toward it.
@@ -19,11 +21,16 @@ Each frame:
    obstacles in Wall-Obstacles, bright objects in downsampling (dark ones do not stand out:
    that is the representation's weakness, not the subject's). The row's floor is the lower of
    its median now and its median over the last seconds (so a wall that fills a row still
-   stands out while it comes nearer). What stands out is placed on the floor through the head
+   stands out while it comes nearer). Only what stands out in two frames running counts (one
+   frame's perceptual noise is not an obstacle). What stands out is placed on the floor through the head
    pose (its ray's floor point: an overestimate for things above the floor, as for a person
    who judges distance by height in the view) and remembered for a few seconds in the
    path-integrated frame, so an obstacle that left the view is still walked around.
-3. **Steering**: among headings within ±``MAX_HEADING`` of the body, the one nearest the
+3. **Touch**: a bump (a collision the body feels: ``touch()``) makes it step back for
+   ``BACK_S`` and turn away from the side where it last saw more obstacles. (The other
+   policies' "no optic flow" cue does not work here: on a featureless floor the view does not
+   change while walking freely either.)
+4. **Steering**: among headings within ±``MAX_HEADING`` of the body, the one nearest the
    goal's direction (or the remembered trail's) that no obstacle within ``AVOID_RANGE`` blocks
    for a body of ``BODY_RADIUS`` + ``MARGIN``; speed falls with the nearest obstacle ahead; with
    every heading blocked it turns on the spot toward the freer side.
@@ -45,6 +52,7 @@ AVOID_RANGE = 2.2                  # m: nearer obstacles are avoided
 MEMORY_S = 4.0                     # s an obstacle out of view is remembered
 FLOOR_TAU_S = 1.5                  # s: time constant of a row's floor brightness over time
 TRAIL_MEMORY_S = 6.0               # s: turns back toward a trail seen this recently
+BACK_S = 0.8                       # s stepping back after a bump
 
 
 def _wrap(a: float | np.ndarray):
@@ -75,18 +83,41 @@ class Navigate(Policy):
         self.band_ids = np.unique(self.bands)
         self.floor_ref = np.full(self.band_ids.max() + 1, np.nan)
         self.bearing = np.arctan2(self.ground[:, 1], self.ground[:, 0])    # NaN above the horizon
+        self._standing_out = np.zeros(len(layout.x), bool)     # stood out in the previous frame
         self.pose = np.zeros(3)                        # path-integrated x, y [m], heading [rad] (start frame)
         self.memory: list[tuple[float, float, float]] = []      # obstacles: (x, y, t) in the start frame
         self.peak = 0.0
         self.trail_heading: float | None = None        # start-frame heading where the trail was last seen
         self.trail_t = -math.inf
+        self._touched = False
+        self._back_until = -math.inf
+        self._back_turn = 0.0
+
+    def touch(self) -> None:
+        """The body bumped into something (felt, not seen)."""
+        self._touched = True
+
+    def unblock(self, b: np.ndarray) -> tuple[float, float] | None:
+        t = self.t or 0.0
+        if self._touched:
+            self._touched = False
+            if t >= self._back_until:
+                x, y, h = self.pose
+                cs, sn = math.cos(h), math.sin(h)
+                left = sum(1 for mx, my, _ in self.memory if -sn * (mx - x) + cs * (my - y) > 0)
+                right = len(self.memory) - left
+                side = (-1.0 if left > right else 1.0) if left != right else float(self.rng.choice([-1.0, 1.0]))
+                self._back_until, self._back_turn = t + BACK_S, side
+        if t < self._back_until:
+            return -0.4 * self.config.max_linear, 0.8 * self.config.max_angular * self._back_turn
+        return None
 
     # -- perception ----------------------------------------------------------------------------
     def trail(self, b: np.ndarray) -> np.ndarray:
         """Indices of a trail on the floor, or none: the brightest, clearly apart from the rest."""
         top = float(b.max()) if len(b) else 0.0
         self.peak = max(top, self.peak * 0.97)
-        if top <= 0.0:
+        if top <= 0.0 or "path" not in self.overlays:
             return np.empty(0, int)
         bright = b >= self.config.bright_ratio * self.peak
         between = (b > 0.55 * self.peak) & ~bright
@@ -104,9 +135,11 @@ class Navigate(Policy):
             old = self.floor_ref[band]
             self.floor_ref[band] = now if math.isnan(old) else old + alpha * (now - old)
             ref[band] = min(now, self.floor_ref[band])
-        out = (b > 0) & (b >= ref[self.bands] + self.config.contrast_threshold) & np.isfinite(self.ground_distance)
+        floor = np.maximum(ref[self.bands], self.config.min_brightness)     # at the threshold is not standing out
+        out = (b > 0) & (b >= floor + self.config.contrast_threshold) & np.isfinite(self.ground_distance)
         out[exclude] = False
-        return np.flatnonzero(out)
+        seen, self._standing_out = out & self._standing_out, out
+        return np.flatnonzero(seen)
 
     # -- the decision ---------------------------------------------------------------------------
     def executed(self, v: float, w: float) -> None:
@@ -175,7 +208,9 @@ class Navigate(Policy):
             side = -1.0 if left > len(rel) - left else 1.0
             return 0.0, 0.8 * c.max_angular * side
         heading = float(headings[best])
-        ahead = dist[np.abs(_wrap(np.arctan2(rel[:, 1], rel[:, 0]) - heading)) < math.radians(35)] if len(rel) else []
+        along = rel @ np.array([math.cos(heading), math.sin(heading)]) if len(rel) else np.empty(0)
+        across = rel @ np.array([-math.sin(heading), math.cos(heading)]) if len(rel) else np.empty(0)
+        ahead = along[(along > 0) & (np.abs(across) < BODY_RADIUS + MARGIN)]       # in the body's corridor
         clear = float(np.min(ahead)) if len(ahead) else AVOID_RANGE
         if abs(heading) > math.radians(45):
             return 0.0, c.max_angular * math.copysign(1.0, heading)

@@ -99,6 +99,7 @@ class Policy(ABC):
         self._decided: deque[tuple[float, float, float]] = deque()      # (t, v, w) awaiting the reaction time
         self._acting = (0.0, 0.0)
         self.t: float | None = None                                      # sim time of the last frame [s]
+        self.mode, self.overlays = "", ()                                # the representation shown (show())
         self.dt = self.config.frame_period_s
 
     STILL_FRAMES = 12          # frames walking with an (almost) unchanging view: blocked
@@ -138,6 +139,13 @@ class Policy(ABC):
 
     def executed(self, v: float, w: float) -> None:
         """The command the body carries out now (m/s, rad/s, before motor noise): path integration."""
+
+    def show(self, mode: str, overlays) -> None:
+        """The representation the frames are in (named in each /spv/frame: a subject is told the condition)."""
+        self.mode, self.overlays = str(mode), tuple(overlays)
+
+    def touch(self) -> None:
+        """The body bumped into something (a collision, felt): policies that use touch react."""
 
     def unblock(self, b: np.ndarray) -> tuple[float, float] | None:
         """Walking into something the subject did not see: the view stops changing while they

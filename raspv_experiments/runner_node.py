@@ -31,6 +31,7 @@ class GraphClient:
         from raspv_msgs.msg import CollisionEvent, PhospheneFrame, PhospheneMap
         from raspv_msgs.srv import EndTrial, StartTrial
         from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock
         from std_msgs.msg import String
 
@@ -55,7 +56,9 @@ class GraphClient:
         n.create_subscription(Odometry, topics.ODOM, self._on_odom, SENSOR_QOS)
         n.create_subscription(CollisionEvent, topics.SIM_COLLISIONS, self._on_collision, EVENT_QOS)
         n.create_subscription(String, topics.EXPERIMENT_RESPONSE, self._on_response, EVENT_QOS)
-        n.create_subscription(PhospheneFrame, topics.SPV_FRAME, self._on_frame, SENSOR_QOS)
+        # every frame counts for the share shown (raspv_common.shown_share): a deep reader queue
+        n.create_subscription(PhospheneFrame, topics.SPV_FRAME, self._on_frame,
+                              QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=500, reliability=ReliabilityPolicy.RELIABLE))
         n.create_subscription(PhospheneMap, topics.SPV_MAP, self._on_map, LATCHED_QOS)
         self.pub_instructions = n.create_publisher(String, topics.EXPERIMENT_INSTRUCTIONS, LATCHED_QOS)
         self.start_client = n.create_client(StartTrial, topics.SIM_START_TRIAL)

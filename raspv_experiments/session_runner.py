@@ -118,7 +118,9 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
             if lockstep:
                 n.params["step_mode"] = "lockstep"
             if exact:
-                n.params.update(lockstep_hold=True, lockstep_participants=planners)
+                n.params["lockstep_hold"] = True
+                if planners:
+                    n.params["lockstep_participants"] = planners
         elif lockstep:
             n.params["use_sim_time"] = True
         if n.kind == "planner":

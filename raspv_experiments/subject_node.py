@@ -97,6 +97,7 @@ class SubjectNode(RaspvNode):
         if self.policy is not None and msg.map_id == self.layout.map_id and t > self.after + 1e-6:
             brightness = np.asarray(msg.brightness, dtype=float)
             if brightness.shape == self.layout.x.shape:
+                self.policy.show(msg.mode, msg.overlays)
                 command = self.policy.act(brightness, t)
         self.frames += 1
         twist = Twist()

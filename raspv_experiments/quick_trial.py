@@ -1,0 +1,69 @@
+"""A virtual patient walking a task in one process, from the cores (no rclpy, no graph): the
+simulator core renders, the phosphene simulator core turns the frame into brightness with the
+spv node's parameters, the policy answers — the loop a lockstep session closes through ROS,
+for developing policies and testing them in seconds. Modes that need the scene node's output
+(scene perception) or the planner's path are not run here: those run in sessions and sweeps.
+
+    result = quick_trial("experiments/worlds/hallway.yaml", (1.0, 1.5, 0.0), (8.6, 1.5, 0.8), 40.0,
+                         spv={"device": "argus_ii", "mode": "depth", "temporal": False, "max_depth": 3.0})
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from raspv_experiments.policies import PhospheneLayout, PolicyConfig, make_policy
+
+
+@dataclass
+class QuickResult:
+    success: bool
+    time_s: float
+    collisions: int
+    path: list[tuple[float, float]] = field(default_factory=list)
+
+
+def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float, float, float], time_limit: float,
+                spv: dict[str, Any], policy: str = "navigate", config: PolicyConfig | None = None,
+                rate: float = 10.0, size: tuple[int, int] = (160, 120)) -> QuickResult:
+    """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
+    ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``."""
+    from raspv_bringup.registry import schema_for
+    from raspv_sim.avatar import head_quaternion
+    from raspv_sim.simulator import SimConfig, Simulation
+    from raspv_sim.world_spec import GoalSpec
+    from raspv_spv.frame_inputs import FrameInputs
+    from raspv_spv.spv_node_rebuild import build_simulator
+
+    params = {**schema_for("spv").defaults(), **spv}
+    spv_sim = build_simulator(params)
+    m = spv_sim.map
+    layout = PhospheneLayout(m.centres[:, 0].astype(float), m.centres[:, 1].astype(float), spv_sim.config.width,
+                             spv_sim.config.height, float(m.focal_px))
+    config = config or PolicyConfig()
+    x0, y0, yaw = start
+    dx, dy = goal[0] - x0, goal[1] - y0
+    told = (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
+    agent = make_policy(policy, layout, config, goal=told)
+    agent.show(params["mode"], params["overlays"])
+    with Simulation(world, SimConfig(width=size[0], height=size[1], renderer="tiny")) as sim:
+        sim.start_trial(x0, y0, yaw, (GoalSpec("goal", goal[:2], goal[2]),))
+        sim.set_head(head_quaternion(0.0, math.radians(config.head_pitch_deg), 0.0))
+        t0, command, path = sim.t, (0.0, 0.0), []
+        while sim.t - t0 < time_limit - 1e-6:
+            report = sim.step(1.0 / rate, *command)
+            path.append((sim.avatar.x, sim.avatar.y))
+            if "goal" in report.goals_reached:
+                return QuickResult(True, sim.t - t0, sim.monitor.count, path)
+            if report.collisions:
+                agent.touch()
+            frame = sim.render(labels=False)
+            inputs = FrameInputs(color=frame.rgb, depth=frame.depth, camera=frame.intrinsics, stamp=sim.t,
+                                 camera_pose=frame.world_from_camera)
+            b = spv_sim.brightness(spv_sim.levels(inputs), max(1, round(params["rate"] / rate)))
+            c = agent.act(b, sim.t)
+            command = (c.linear, c.angular)
+        return QuickResult(False, sim.t - t0, sim.monitor.count, path)
