@@ -48,6 +48,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("dirs", nargs="+", metavar="DIR", help="session or sweep folders (searched for trials.jsonl)")
     p.add_argument("-o", "--out", default="report", help="output folder (default: report)")
     p.add_argument("--title", default=None)
+    p.add_argument("--pool", action="store_true", help="pool sessions of different protocols (refused otherwise); "
+                                                       "subjects become protocol/subject")
+    p.add_argument("--share-threshold", type=float, default=None, metavar="FRACTION",
+                   help="flag trials whose share of frames in their own representation is below this "
+                        "(default 0.995)")
 
 
 def _err(text: str) -> int:
@@ -186,8 +191,14 @@ def _sweep(args) -> int:
 def _report(args) -> int:
     from raspv_experiments.report import ReportError, build_report
 
+    from raspv_common.shown_share import DEFAULT_THRESHOLD
+
+    threshold = DEFAULT_THRESHOLD if args.share_threshold is None else args.share_threshold
+    if not 0.0 <= threshold <= 1.0:
+        return _err(f"--share-threshold must be a fraction in [0, 1], got {threshold}")
     try:
-        path = build_report([Path(d) for d in args.dirs], Path(args.out), args.title)
+        path = build_report([Path(d) for d in args.dirs], Path(args.out), args.title, pool=args.pool,
+                            share_threshold=threshold)
     except ReportError as exc:
         return _err(str(exc))
     print(f"report: {path} (data: {path.parent / 'trials.csv'})")

@@ -69,6 +69,7 @@ class Task:
 class Condition:
     name: str
     params: dict[str, dict[str, Any]]    # node name → {parameter: value}
+    factors: dict[str, str] = field(default_factory=dict)   # sweeps: factor (NODE.PARAM) → level label
 
 
 @dataclass(frozen=True)
@@ -101,6 +102,7 @@ class Protocol:
     record: RecordSpec
     text: str = ""                       # the file as written (copied into each session)
     controlled: dict[str, dict[str, Any]] = field(default_factory=dict)   # node → {param: base value}
+    factors: dict[str, list[str]] = field(default_factory=dict)   # sweeps: factor → level labels, in order
 
     @property
     def sha256(self) -> str:

@@ -414,6 +414,9 @@ class SessionRunner:
             "time_limit_s": task.time_limit, "params": params, "run_dir": str(run_dir),
             "sim_start_s": round(start_t, 4), "sim_end_s": round(end_t, 4), "finished": now_iso(),
             "policy": self.options.policy}
+        factors = self.protocol.condition(trial.condition).factors
+        if factors:
+            record["factors"] = dict(factors)
         if status == "completed":
             geometry = world_geometry(task.world)
             _, shortest = geometry.shortest_path((task.start_x, task.start_y), (task.goal.x, task.goal.y), task.goal.radius)

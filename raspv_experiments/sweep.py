@@ -100,8 +100,9 @@ def load_sweep(path: str | Path) -> Sweep:
     pdoc = dict(pdoc)
     pdoc["name"] = doc.get("name", path.stem)
     factors = doc.get("factors")
+    condition_levels: dict[str, dict[str, str]] = {}
     if factors is not None:
-        pdoc["conditions"] = _conditions_from_factors(factors, pdoc, path, errors)
+        pdoc["conditions"] = _conditions_from_factors(factors, pdoc, path, errors, condition_levels)
     elif "conditions" in doc:
         wanted = doc["conditions"]
         have = pdoc.get("conditions") or {}
@@ -153,6 +154,11 @@ def load_sweep(path: str | Path) -> Sweep:
             task["world"] = str((ppath.parent / task["world"]).resolve())
     text = f"# sweep {path} of protocol {ppath}\n" + yaml.safe_dump(pdoc, sort_keys=False)
     protocol = parse_protocol(pdoc, path, text)
+    if isinstance(factors, dict) and factors:       # each condition's level of every factor, for the report
+        from dataclasses import replace
+
+        protocol.factors = {str(k): [_factor_label(v) for v in vals] for k, vals in factors.items()}
+        protocol.conditions = [replace(c, factors=condition_levels.get(c.name, {})) for c in protocol.conditions]
     return Sweep(path, protocol.name, protocol, policy, subjects, good, workers)
 
 
@@ -176,7 +182,10 @@ def _apply_overrides(pdoc: dict, overrides: Any, path: Path) -> None:
         section.setdefault("ros__parameters", {})[param] = value
 
 
-def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[str]) -> dict[str, Any]:
+def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[str],
+                             levels: dict[str, dict[str, str]]) -> dict[str, Any]:
+    """Every combination of the factors' values as a condition; ``levels`` gets each condition's
+    level (label) of every factor."""
     if not isinstance(factors, dict) or not factors:
         errors.append(f"{path}: factors: expected a mapping NODE.PARAM: [values], e.g. spv.mode: [grey, depth]")
         return {}
@@ -197,6 +206,7 @@ def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[
         for n, p, v in combo:
             body.setdefault(n, {})[p] = v
         conditions[name] = body
+        levels[name] = {f"{n}.{p}": _factor_label(v) for n, p, v in combo}
     return conditions
 
 
