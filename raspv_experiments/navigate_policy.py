@@ -11,9 +11,9 @@ drifts as a person's does). It does not see the world, the camera or the map.
 
 Each frame:
 
-1. **A trail** (only with the navigation path overlay): the brightest phosphenes standing clearly apart
-   from the rest (few phosphenes between half and ``bright_ratio`` of the brightest) are a
-   trail on the floor; it is followed by pure pursuit on the point about ``lookahead`` m ahead,
+1. **A trail** (only with the navigation path overlay, which lights the path at full level and
+   halves everything else): phosphenes clearly above half (``TRAIL_LEVEL``, and 60 % of the
+   brightest seen lately) are a trail on the floor; it is followed by pure pursuit on the point about ``lookahead`` m ahead,
    and its direction remembered: when it leaves the view the subject turns back toward it.
 2. **Obstacles**: phosphenes in the same image row look at the same floor distance (a level
    head), so the floor of a row has one brightness; whatever is brighter than that row's floor
@@ -53,6 +53,7 @@ MEMORY_S = 4.0                     # s an obstacle out of view is remembered
 FLOOR_TAU_S = 1.5                  # s: time constant of a row's floor brightness over time
 TRAIL_MEMORY_S = 6.0               # s: turns back toward a trail seen this recently
 BACK_S = 0.8                       # s stepping back after a bump
+TRAIL_LEVEL = 0.6                  # the path overlay halves all but the path: a trail is brighter than this
 
 
 def _wrap(a: float | np.ndarray):
@@ -114,14 +115,14 @@ class Navigate(Policy):
 
     # -- perception ----------------------------------------------------------------------------
     def trail(self, b: np.ndarray) -> np.ndarray:
-        """Indices of a trail on the floor, or none: the brightest, clearly apart from the rest."""
+        """Indices of the trail on the floor (with the path overlay on: it lights the path at full
+        level and halves everything else, so the trail is what is clearly above half)."""
         top = float(b.max()) if len(b) else 0.0
         self.peak = max(top, self.peak * 0.97)
         if top <= 0.0 or "path" not in self.overlays:
             return np.empty(0, int)
-        bright = b >= self.config.bright_ratio * self.peak
-        between = (b > 0.55 * self.peak) & ~bright
-        if bright.sum() < 2 or between.sum() > 0.5 * bright.sum():
+        bright = (b >= TRAIL_LEVEL) & (b >= 0.6 * self.peak)
+        if bright.sum() < 2:
             return np.empty(0, int)
         return np.flatnonzero(bright & np.isfinite(self.ground_distance))
 

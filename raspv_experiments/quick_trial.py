@@ -1,8 +1,10 @@
 """A virtual patient walking a task in one process, from the cores (no rclpy, no graph): the
 simulator core renders, the phosphene simulator core turns the frame into brightness with the
 spv node's parameters, the policy answers — the loop a lockstep session closes through ROS,
-for developing policies and testing them in seconds. Modes that need the scene node's output
-(scene perception) or the planner's path are not run here: those run in sessions and sweeps.
+for developing policies and testing them in seconds. With the ``path`` overlay the shortest path
+from where the avatar stands (:mod:`raspv_experiments.world_geometry`, replanned every
+``replan_s``) stands in for the planner node's. Modes that need the scene node's output (scene
+perception) are not run here: those run in sessions and sweeps.
 
     result = quick_trial("experiments/worlds/hallway.yaml", (1.0, 1.5, 0.0), (8.6, 1.5, 0.8), 40.0,
                          spv={"device": "argus_ii", "mode": "depth", "temporal": False, "max_depth": 3.0})
@@ -28,7 +30,7 @@ class QuickResult:
 
 def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float, float, float], time_limit: float,
                 spv: dict[str, Any], policy: str = "navigate", config: PolicyConfig | None = None,
-                rate: float = 10.0, size: tuple[int, int] = (160, 120)) -> QuickResult:
+                rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5) -> QuickResult:
     """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
     ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``."""
     from raspv_bringup.registry import schema_for
@@ -49,6 +51,17 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     told = (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
     agent = make_policy(policy, layout, config, goal=told)
     agent.show(params["mode"], params["overlays"])
+    geometry = None
+    if "path" in params["overlays"]:
+        from raspv_experiments.world_geometry import world_geometry
+        from raspv_nav.costmap import CostmapConfig
+        from raspv_nav.global_planner import GlobalPlanner, NoPathError
+
+        geometry = world_geometry(world)          # the planner node's clearance and costs on the full map
+        planner = GlobalPlanner(geometry.grid, CostmapConfig(robot_radius=0.2, inflation_radius=1.0, cost_weight=4.0))
+        target = geometry.reachable_point(np.asarray(goal[:2], float), goal[2])
+    extras: dict[str, Any] = {}
+    planned = -float("inf")
     with Simulation(world, SimConfig(width=size[0], height=size[1], renderer="tiny")) as sim:
         sim.start_trial(x0, y0, yaw, (GoalSpec("goal", goal[:2], goal[2]),))
         sim.set_head(head_quaternion(0.0, math.radians(config.head_pitch_deg), 0.0))
@@ -61,8 +74,14 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
             if report.collisions:
                 agent.touch()
             frame = sim.render(labels=False)
+            if geometry is not None and sim.t - planned >= replan_s - 1e-6:
+                planned = sim.t
+                try:
+                    extras = {"nav_path": planner.plan(np.array([sim.avatar.x, sim.avatar.y]), target).path}
+                except NoPathError:
+                    extras = {}
             inputs = FrameInputs(color=frame.rgb, depth=frame.depth, camera=frame.intrinsics, stamp=sim.t,
-                                 camera_pose=frame.world_from_camera)
+                                 camera_pose=frame.world_from_camera, extras=dict(extras))
             b = spv_sim.brightness(spv_sim.levels(inputs), max(1, round(params["rate"] / rate)))
             c = agent.act(b, sim.t)
             command = (c.linear, c.angular)

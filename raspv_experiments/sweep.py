@@ -212,16 +212,18 @@ def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[
 
 # -- running -------------------------------------------------------------------------------------
 
-def run_job(sweep_path: str, number: int, out: str, resume: bool) -> dict[str, Any]:
-    """One virtual subject's session on a private ROS domain (a worker process or a Ray task).
-    Returns the session's records (so a driver without a shared disk still gets them)."""
+def run_job(sweep_path: str, number: int, out: str, resume: bool,
+            domains: tuple[int, int] | None = None) -> dict[str, Any]:
+    """One virtual subject's session on a private ROS domain (in ``domains`` [low, high) when
+    given; a worker process or a Ray task). Returns the session's records (so a driver without a
+    shared disk still gets them)."""
     from raspv_bringup.middleware import apply_middleware_defaults
     from raspv_experiments.domains import private_domain
     from raspv_experiments.session_runner import RunOptions, SessionRunner
 
     sweep = load_sweep(sweep_path)
     subject = f"scripted-{sweep.policy}-{number}"
-    with private_domain() as domain:
+    with private_domain(*(domains or ())) as domain:
         apply_middleware_defaults()
         options = RunOptions(out=Path(out), subject=subject, policy=sweep.policy, number=number, resume=resume,
                              lockstep=True, headless=True, keys=False, subject_params=dict(sweep.subject_params))
@@ -268,13 +270,17 @@ def _store(result: dict[str, Any], out: Path) -> None:
 
 
 def run_sweep(sweep: Sweep, out: Path, workers: int | None = None, ray_address: str | None = None,
-              resume: bool = False, say=print) -> list[dict[str, Any]]:
-    """Run every job of ``sweep``; results (one per subject) in the order they finish."""
+              resume: bool = False, say=print, domains: tuple[int, int] | None = None) -> list[dict[str, Any]]:
+    """Run every job of ``sweep``; results (one per subject) in the order they finish. ``domains``
+    (low, high): the ROS domain ids the graphs may take (default: any free one in 30–230)."""
     out = Path(out)
+    if (out / "sessions").exists() and any((out / "sessions").rglob("session.json")) and not resume:
+        raise ProtocolError([f"{out} already holds this sweep's sessions: add --resume to continue them, or use "
+                             "another --out"])
     (out / "sessions").mkdir(parents=True, exist_ok=True)
     (out / "sweep.yaml").write_text(sweep.path.read_text())
     (out / "protocol.yaml").write_text(sweep.protocol.text)
-    jobs = [(str(sweep.path.resolve()), n, str((out / "sessions").resolve()), resume) for n in sweep.subjects]
+    jobs = [(str(sweep.path.resolve()), n, str((out / "sessions").resolve()), resume, domains) for n in sweep.subjects]
     n_cond = len(sweep.protocol.conditions)
     say(f"sweep {sweep.name}: {len(jobs)} virtual subjects × {n_cond} conditions × {len(sweep.protocol.tasks)} tasks × "
         f"{sweep.protocol.design.repetitions} repetitions, policy {sweep.policy}")
@@ -285,13 +291,56 @@ def run_sweep(sweep: Sweep, out: Path, workers: int | None = None, ray_address: 
         workers = workers or sweep.workers or max(1, min(len(jobs), (os.cpu_count() or 2) // 2))
         say(f"running on {workers} worker process{'es' if workers > 1 else ''} (each graph on its own ROS domain)")
         ctx = multiprocessing.get_context("spawn")
+        progress = SweepProgress(out / "sessions" / sweep.name, _total_trials(sweep), say)
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = {pool.submit(run_job, *job): job for job in jobs}
-            for fut in cf.as_completed(futures):
-                results.append(_finished(fut.result(), say))
+            pending = {pool.submit(run_job, *job) for job in jobs}
+            while pending:
+                done, pending = cf.wait(pending, timeout=PROGRESS_PERIOD_S, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    results.append(_finished(fut.result(), say))
+                progress.update()
     for r in results:
         _store(r, out)
     return results
+
+
+PROGRESS_PERIOD_S = 10.0
+
+
+def _total_trials(sweep: Sweep) -> int:
+    from raspv_experiments.design import plan_session
+
+    return sum(len(plan_session(sweep.protocol, f"scripted-{sweep.policy}-{n}")) for n in sweep.subjects)
+
+
+class SweepProgress:
+    """Trials done over the whole sweep (counted in the sessions' trials.jsonl on this disk), with
+    the elapsed time and an ETA, said whenever the count changes."""
+
+    def __init__(self, sessions: Path, total: int, say) -> None:
+        import time
+
+        self.sessions, self.total, self.say = sessions, total, say
+        self.started = time.monotonic()
+        self.at_start = self.count()
+        self.last = self.at_start
+
+    def count(self) -> int:
+        from raspv_experiments.session import DONE_STATUSES, read_jsonl
+
+        return sum(1 for f in self.sessions.glob("*/trials.jsonl") for r in read_jsonl(f)
+                   if r.get("status") in DONE_STATUSES)
+
+    def update(self) -> None:
+        import time
+
+        from raspv_experiments.session_control import elapsed_and_eta
+
+        n = self.count()
+        if n != self.last:
+            self.last = n
+            eta = elapsed_and_eta(n - self.at_start, self.total - self.at_start, time.monotonic() - self.started)
+            self.say(f"  {n}/{self.total} trials done, {eta}")
 
 
 def _finished(result: dict[str, Any], say) -> dict[str, Any]:
