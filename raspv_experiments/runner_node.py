@@ -123,6 +123,17 @@ class GraphClient:
             self.map_info = {"device": msg.device, "map_id": int(msg.map_id), "phosphenes": int(len(msg.x)),
                              "phosphenes_shown": shown}
 
+    def wait_frame(self, stamp: float, timeout: float = 10.0) -> bool:
+        """Wait until a frame stamped ``stamp`` [s] or later arrived (the display's last frame of a
+        trial comes after the simulator's clock and pose of it); False on timeout."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with self.lock:
+                if self.frames and self.frames[-1].t >= stamp - 1e-6:
+                    return True
+            time.sleep(0.005)
+        return False
+
     def take_frames(self) -> list:
         """The /spv/frame frames (ShownFrame) since the last call."""
         with self.lock:
@@ -176,6 +187,30 @@ class GraphClient:
         finally:
             for c in clients:
                 c.destroy()
+
+    def wait_connected(self, required: dict[str, tuple[int, int]], timeout: float, settle_s: float = 1.0,
+                       alive=lambda: True) -> None:
+        """Wait until every topic in ``required`` has at least (publishers, subscribers) and the
+        graph's endpoints, as this node sees them, stayed the same for ``settle_s``: a frame
+        published before discovery finished is lost, and in lockstep a lost first frame would
+        make a run differ from the next (see docs/DEVELOPING.md, the races tests avoid)."""
+        deadline = time.monotonic() + timeout
+        last, since = None, time.monotonic()
+        while True:
+            names = sorted(n for n, _ in self.node.get_topic_names_and_types())
+            now = tuple((n, self.node.count_publishers(n), self.node.count_subscribers(n)) for n in names)
+            counts = {n: (p, s) for n, p, s in now}
+            missing = [t for t, (p, s) in required.items() if counts.get(t, (0, 0))[0] < p or counts.get(t, (0, 0))[1] < s]
+            if now != last:
+                last, since = now, time.monotonic()
+            elif not missing and time.monotonic() - since >= settle_s:
+                return
+            if not alive():
+                raise RunnerError("the graph stopped while starting (see the graph log)")
+            if time.monotonic() > deadline:
+                raise RunnerError(f"the graph's topics did not connect within {timeout:.0f} s: "
+                                  + (", ".join(missing) if missing else "its endpoints kept changing"))
+            time.sleep(0.05)
 
     def _wait(self, future, timeout: float, what: str):
         deadline = time.monotonic() + timeout

@@ -256,6 +256,14 @@ class SessionRunner:
             self.client = GraphClient()
         controlled = [n for n in self.protocol.controlled if any(e.name == n for e in graph.nodes)]
         self.client.wait_ready(controlled, START_TIMEOUT_S, alive=self._sup_thread.is_alive)
+        if self.options.exact:            # every frame of the first trial must reach every node
+            from raspv_common import topics
+
+            planners = sum(1 for n in graph.nodes if n.kind == "planner")
+            self.client.wait_connected({topics.SPV_FRAME: (1, 2 + planners), topics.SPV_MAP: (1, 2),
+                                        topics.SIM_LOCKSTEP: (1 + planners, 1), topics.HEAD_ORIENTATION: (1, 1),
+                                        topics.EXPERIMENT_INSTRUCTIONS: (1, 1)},
+                                       START_TIMEOUT_S, alive=self._sup_thread.is_alive)
 
     def _stop_graph(self) -> None:
         if self.supervisor is not None:
@@ -358,6 +366,8 @@ class SessionRunner:
         monitor = TrialMonitor(task.goal.x, task.goal.y, task.goal.radius, task.time_limit, start_t, start_t,
                                task.start_x, task.start_y)
         request = self._monitor(monitor)
+        if self.options.exact and request is None:      # the trial's last frame reaches the display record too
+            self.client.wait_frame(min(monitor.t, start_t + task.time_limit))
         self._stop_bag(bag)
         self.client.end_trial(plot=False)
         frames = self.client.take_frames()

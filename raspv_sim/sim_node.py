@@ -265,9 +265,9 @@ class SimNode(RaspvNode):
         self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
         header = self.header(self.params["frame_id"], stamp)
         self.camera_info.header = header
+        self.pub_info.publish(self.camera_info)          # before the images: a node's first image finds it
         self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
         self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))
-        self.pub_info.publish(self.camera_info)
         if not getattr(self, "_first_frame_logged", False):   # the start of a recording is checked against it
             self._first_frame_logged = True
             h = header.stamp
