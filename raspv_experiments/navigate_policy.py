@@ -12,7 +12,7 @@ drifts as a person's does). It does not see the world, the camera or the map.
 Each frame:
 
 1. **A trail** (only with the navigation path overlay, which lights the path at full level and
-   halves everything else): phosphenes clearly above half (``TRAIL_LEVEL``, and 60 % of the
+   halves everything else): phosphenes clearly above half (``TRAIL_LEVEL``, and 75 % of the
    brightest seen lately) are a trail on the floor; it is followed by pure pursuit on the point about ``lookahead`` m ahead,
    and its direction remembered: when it leaves the view the subject turns back toward it.
 2. **Obstacles**: phosphenes in the same image row look at the same floor distance (a level
@@ -53,7 +53,8 @@ MEMORY_S = 4.0                     # s an obstacle out of view is remembered
 FLOOR_TAU_S = 1.5                  # s: time constant of a row's floor brightness over time
 TRAIL_MEMORY_S = 6.0               # s: turns back toward a trail seen this recently
 BACK_S = 0.8                       # s stepping back after a bump
-TRAIL_LEVEL = 0.6                  # the path overlay halves all but the path: a trail is brighter than this
+TRAIL_LEVEL = 0.78                 # the path overlay lights the path at full level (1) and halves the rest (≤ 4/7 with
+                                   # 8 levels): a trail is brighter than midway, with room for perceptual noise
 
 
 def _wrap(a: float | np.ndarray):
@@ -121,7 +122,7 @@ class Navigate(Policy):
         self.peak = max(top, self.peak * 0.97)
         if top <= 0.0 or "path" not in self.overlays:
             return np.empty(0, int)
-        bright = (b >= TRAIL_LEVEL) & (b >= 0.6 * self.peak)
+        bright = (b >= TRAIL_LEVEL) & (b >= 0.75 * self.peak)
         if bright.sum() < 2:
             return np.empty(0, int)
         return np.flatnonzero(bright & np.isfinite(self.ground_distance))

@@ -1,9 +1,9 @@
 """A virtual patient walking a task in one process, from the cores (no rclpy, no graph): the
 simulator core renders, the phosphene simulator core turns the frame into brightness with the
 spv node's parameters, the policy answers — the loop a lockstep session closes through ROS,
-for developing policies and testing them in seconds. With the ``path`` overlay the shortest path
-from where the avatar stands (:mod:`raspv_experiments.world_geometry`, replanned every
-``replan_s``) stands in for the planner node's. Modes that need the scene node's output (scene
+for developing policies and testing them in seconds. With the ``path`` overlay the planner
+node's core (:class:`raspv_nav.assistant.NavigationAssistant`: the building's structure, obstacles
+from each depth frame, a replan every ``replan_s``) draws the path, as in the graph. Modes that need the scene node's output (scene
 perception) are not run here: those run in sessions and sweeps.
 
     result = quick_trial("experiments/worlds/hallway.yaml", (1.0, 1.5, 0.0), (8.6, 1.5, 0.8), 40.0,
@@ -30,7 +30,8 @@ class QuickResult:
 
 def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float, float, float], time_limit: float,
                 spv: dict[str, Any], policy: str = "navigate", config: PolicyConfig | None = None,
-                rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5) -> QuickResult:
+                rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5,
+                planner: dict[str, Any] | None = None) -> QuickResult:
     """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
     ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``."""
     from raspv_bringup.registry import schema_for
@@ -51,15 +52,18 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     told = (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
     agent = make_policy(policy, layout, config, goal=told)
     agent.show(params["mode"], params["overlays"])
-    geometry = None
-    if "path" in params["overlays"]:
+    assistant = None
+    if "path" in params["overlays"]:       # the planner node's core, as the planner node runs it
+        from raspv_nav.assistant import NavigationAssistant, assistant_config
         from raspv_experiments.world_geometry import world_geometry
-        from raspv_nav.costmap import CostmapConfig
-        from raspv_nav.global_planner import GlobalPlanner, NoPathError
+        from raspv_nav.planner_params import PARAMS as PLANNER_PARAMS
+        from raspv_sim.occupancy_export import world_occupancy
 
-        geometry = world_geometry(world)          # the planner node's clearance and costs on the full map
-        planner = GlobalPlanner(geometry.grid, CostmapConfig(robot_radius=0.2, inflation_radius=1.0, cost_weight=4.0))
-        target = geometry.reachable_point(np.asarray(goal[:2], float), goal[2])
+        with Simulation(world, SimConfig(width=16, height=12, renderer="tiny")) as building:
+            structure = world_occupancy(building.world, 0.05, structure_only=True)
+        target = world_geometry(world).reachable_point(np.asarray(goal[:2], float), goal[2])
+        p = {q.name: q.default for q in PLANNER_PARAMS} | {"robot_radius": 0.2, **(planner or {})}
+        assistant = NavigationAssistant(structure, goal[:2] if target is None else target, assistant_config(p))
     extras: dict[str, Any] = {}
     planned = -float("inf")
     with Simulation(world, SimConfig(width=size[0], height=size[1], renderer="tiny")) as sim:
@@ -74,12 +78,13 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
             if report.collisions:
                 agent.touch()
             frame = sim.render(labels=False)
-            if geometry is not None and sim.t - planned >= replan_s - 1e-6:
-                planned = sim.t
-                try:
-                    extras = {"nav_path": planner.plan(np.array([sim.avatar.x, sim.avatar.y]), target).path}
-                except NoPathError:
-                    extras = {}
+            if assistant is not None:
+                assistant.set_subject(sim.t, sim.avatar.x, sim.avatar.y, sim.avatar.yaw)
+                assistant.add_depth(frame.depth, frame.intrinsics, frame.world_from_camera, sim.t)
+                if sim.t - planned >= replan_s - 1e-6:
+                    planned = sim.t
+                    status = assistant.replan()
+                    extras = {"nav_path": status.path} if status.path is not None else {}
             inputs = FrameInputs(color=frame.rgb, depth=frame.depth, camera=frame.intrinsics, stamp=sim.t,
                                  camera_pose=frame.world_from_camera, extras=dict(extras))
             b = spv_sim.brightness(spv_sim.levels(inputs), max(1, round(params["rate"] / rate)))

@@ -44,25 +44,11 @@ from raspv_common.conversions import pose_to_matrix, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
-from raspv_nav.assistant import AssistantConfig, NavigationAssistant
-from raspv_nav.costmap import CostmapConfig
-from raspv_nav.local_planner import DWAConfig
+from raspv_nav.assistant import NavigationAssistant, assistant_config
 from raspv_nav.motion import MapAlignment, VelocityEstimator, planar_pose
 from raspv_nav.nav_msg import costmap_to_msg, guidance_to_msg, path_to_msg
-from raspv_nav.obstacle_layer import ObstacleLayerConfig
 from raspv_nav.occupancy import MapFormatError, load_map
 from raspv_nav.planner_params import PARAMS
-
-
-def assistant_config(p: dict) -> AssistantConfig:
-    """The core's configuration from the node's parameters (raises ValueError)."""
-    return AssistantConfig(
-        costmap=CostmapConfig(robot_radius=p["robot_radius"], inflation_radius=p["inflation_radius"],
-                              cost_weight=p["cost_weight"]),
-        obstacles=ObstacleLayerConfig(min_height=p["obstacle_min_height"], max_height=p["obstacle_max_height"],
-                                      max_range=p["obstacle_range"], decay_s=p["obstacle_memory"]),
-        dwa=DWAConfig(max_speed=p["max_speed"], robot_radius=p["robot_radius"]),
-        goal_tolerance=p["goal_tolerance"], max_relocation=p["max_relocation"], proximity_range=p["proximity_range"])
 
 
 class PlannerNode(RaspvNode):
