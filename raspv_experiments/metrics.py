@@ -10,7 +10,7 @@ From ``trajectory.csv`` (base and head at the log rate, sim time) and ``events.j
   successful trials (1 = the shortest path, lower = detours);
 - **collisions**: count, and what was hit (``class:name``, in order) and per class;
 - **minimum clearance** [m]: smallest distance between the body (a cylinder of the avatar's
-  radius) and a static object along the trajectory (from the 5 cm occupancy map, so ±2.5 cm;
+  radius) and a static object along the trajectory (from the 5 cm occupancy map, ±3 cm along faces;
   people are not static and are counted by collisions only);
 - **head rotation** [deg] and [deg/s]: total angle the head turned relative to the body (the
   angle between successive head orientations, summed) — sampled at the log rate, so faster
