@@ -346,6 +346,12 @@ def _tasks(value: Any, path: Path, ck: _Checker) -> list[Task]:
         ck.keys(start, f"{key}.start", {"position", "yaw"})
         sx, sy = ck.point(start.get("position"), f"{key}.start.position") if start else (0.0, 0.0)
         yaw = ck.number(start.get("yaw", 0.0), f"{key}.start.yaw", -360, 360) if start else 0.0
+        if start and math.isfinite(sx) and math.isfinite(sy) and math.isfinite(yaw):
+            from raspv_experiments.world_geometry import start_problem
+
+            problem = start_problem(world_ref, sx, sy, math.radians(yaw))
+            if problem:
+                ck.fail(f"{key}.start.position", f"the avatar at [{sx:g}, {sy:g}] {problem}; move the start")
         goal = _goal(body.get("goal"), f"{key}.goal", world_ref, ck)
         limit = ck.number(body.get("time_limit", 60.0), f"{key}.time_limit", positive=True)
         text = body.get("instructions", "")

@@ -113,3 +113,18 @@ def world_geometry(world: str) -> WorldGeometry:
         name = sim.spec.name
     planner = GlobalPlanner(grid, CostmapConfig(robot_radius=BODY_RADIUS, cost_weight=0.0))
     return WorldGeometry(name, grid, grid.obstacle_distance(unknown_is_obstacle=True), planner)
+
+
+@functools.lru_cache(maxsize=4)
+def _placement_sim(world: str):
+    from raspv_sim.simulator import SimConfig, Simulation
+
+    return Simulation(world, SimConfig(width=16, height=12, renderer="tiny"))
+
+
+def start_problem(world: str, x: float, y: float, yaw: float) -> str | None:
+    """Why the avatar cannot start at (x, y) [m, W] facing ``yaw`` [rad] in ``world`` — the
+    simulator's own check (no floor, overlapping an object) — or None."""
+    sim = _placement_sim(world)
+    sim.avatar.teleport(x, y, yaw)
+    return sim.avatar.placement_problem()
