@@ -183,11 +183,11 @@ def _run(args) -> int:
 
 
 def _sweep(args) -> int:
-    from raspv_experiments.protocol import ProtocolError
+    from raspv_experiments.protocol import ProtocolError, resolve_protocol_path
     from raspv_experiments.sweep import load_sweep, run_sweep
 
     try:
-        sweep = load_sweep(args.sweep)
+        sweep = load_sweep(resolve_protocol_path(args.sweep))
     except ProtocolError as exc:
         print("\n".join(exc.errors), file=sys.stderr)
         return 2

@@ -93,14 +93,25 @@ def check_pooling(records: list[dict[str, Any]], sessions: list[dict[str, Any]],
     variants = sum(max(1, len(v)) for v in protocols.values())
     if variants <= 1:
         return []
-    names = [f"{n} ({', '.join(sorted(h)) or 'no session.json'})" for n, h in sorted(protocols.items())]
+    names = [f"{n} (file {h})" if h else n for n, hs in sorted(protocols.items()) for h in (sorted(hs) or [""])]
     if not pool:
         raise ReportError(f"the folders hold sessions of {variants} different protocols: {'; '.join(names)}. Report "
                           "each on its own, or pass --pool to pool them (subjects are then protocol/subject)")
     return names
 
 
-def tidy_rows(records: list[dict[str, Any]], pooled: bool = False) -> list[dict[str, Any]]:
+def pooled_labels(sessions: list[dict[str, Any]]) -> dict[str, str]:
+    """Session folder → the protocol's label when pooling: its name, plus the file's sha256 prefix
+    when one name was run from several files."""
+    shas: dict[str, set[str]] = {}
+    for s in sessions:
+        shas.setdefault(str(s.get("protocol")), set()).add(str(s.get("protocol_sha256") or "")[:8])
+    return {s["folder"]: (f"{s.get('protocol')}@{str(s.get('protocol_sha256') or '')[:8]}"
+                          if len(shas[str(s.get("protocol"))]) > 1 else str(s.get("protocol"))) for s in sessions}
+
+
+def tidy_rows(records: list[dict[str, Any]], pooled: dict[str, str] | None = None) -> list[dict[str, Any]]:
+    """One row per record; ``pooled`` (session folder → protocol label): subjects become label/subject."""
     rows = []
     for r in records:
         m = r.get("metrics") or {}
@@ -111,8 +122,8 @@ def tidy_rows(records: list[dict[str, Any]], pooled: bool = False) -> list[dict[
                   "path_efficiency", "collisions", "min_clearance_m", "head_rotation_deg", "head_rotation_deg_per_s"):
             row[k] = m.get(k)
         row["collided_with"] = ";".join(m.get("collided_with", []))
-        if pooled:
-            row["subject"] = f"{r.get('protocol')}/{r.get('subject')}"
+        if pooled is not None:
+            row["subject"] = f"{pooled.get(str(r.get('session')), r.get('protocol'))}/{r.get('subject')}"
         d = r.get("display") or {}
         row["phosphenes_shown"] = d.get("phosphenes_shown")
         row["device"] = d.get("device")
@@ -178,7 +189,7 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bo
 
     records, sessions = find_records(dirs)
     pooled = check_pooling(records, sessions, pool)
-    rows = tidy_rows(records, pooled=bool(pooled))
+    rows = tidy_rows(records, pooled_labels(sessions) if pooled else None)
     declared: dict[str, list[str]] = {}
     for s in sessions:
         for k, v in (s.get("factors") or {}).items():
