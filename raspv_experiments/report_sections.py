@@ -91,7 +91,7 @@ def survival_section(data: list[dict], conditions: list[str]) -> tuple[str, dict
     for t, adj in zip(tests, holm([t.p for t in tests])):
         t.p_holm = adj
     if tests:
-        parts.append("<table class='logrank'><tr><th>pair</th><th>log-rank χ²</th><th>p</th><th>p (Holm)</th>"
+        parts.append("<table class='logrank'><tr><th>pair</th><th>log-rank z</th><th>p</th><th>p (Holm)</th>"
                      "<th></th></tr>")
         parts += [f"<tr><td>{esc(t.a)} vs {esc(t.b)}</td><td>{fmt(t.statistic, 3)}</td><td>{fmt(t.p, 3)}</td>"
                   f"<td>{fmt(t.p_holm, 3)}</td><td>{esc(t.note)}</td></tr>" for t in tests]
