@@ -41,6 +41,7 @@ from raspv_experiments.world_geometry import world_geometry
 
 STALL_S = 60.0            # wall seconds without the simulation clock advancing: the graph is stuck
 START_TIMEOUT_S = 180.0   # wall seconds for a graph to come up
+BAG_START_S = 60.0        # wall seconds for a trial's bag recorder to subscribe
 
 
 @dataclass
@@ -358,11 +359,15 @@ class SessionRunner:
         if not self._wait_start(info):
             return "quit"
         self.client.take_frames()
+        bag = None
+        if self.options.exact:          # lockstep trials are over in seconds: the recorder listens first
+            bag = self._start_bag(self.folder.root / "trials" / run_name)
         res = self.client.start_trial(task.start_x, task.start_y, yaw, goal,
                                       str(self.folder.root / "trials"), run_name, time_limit=task.time_limit)
         self.client.show({"id": key, "trial": trial.index, "title": title, "text": "", "waiting": False})
         run_dir, start_t = Path(res.run_dir), float(res.sim_time)
-        bag = self._start_bag(run_dir)
+        if not self.options.exact:
+            bag = self._start_bag(run_dir)
         monitor = TrialMonitor(task.goal.x, task.goal.y, task.goal.radius, task.time_limit, start_t, start_t,
                                task.start_x, task.start_y)
         request = self._monitor(monitor)
@@ -463,9 +468,21 @@ class SessionRunner:
             return None
         cmd = [sys.executable, "-m", "raspv_bringup.cli", "bag", "record", "-o", str(run_dir / "bag"),
                *self.protocol.record.bag_topics]
+        run_dir.mkdir(parents=True, exist_ok=True)
         log = open(run_dir / "bag.log", "w")
-        return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        topics = [t for t in self.protocol.record.bag_topics if self.client.node.count_publishers(t)]
+        before = {t: self.client.node.count_subscribers(t) for t in topics}
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 env=os.environ.copy(), start_new_session=True, preexec_fn=_die_with_parent)
+        # every topic that has a publisher gets the recorder's subscription before the trial starts
+        deadline = time.monotonic() + BAG_START_S
+        while any(self.client.node.count_subscribers(t) <= n for t, n in before.items()):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                self.say(f"the bag recorder did not subscribe within {BAG_START_S:.0f} s; see {run_dir / 'bag.log'}")
+                break
+            time.sleep(0.05)
+        time.sleep(0.3)                 # its subscriptions matched on the publishers' side too
+        return proc
 
     @staticmethod
     def _stop_bag(proc: subprocess.Popen | None) -> None:

@@ -63,10 +63,10 @@ class ExperimentLog:
         name = run_name or f"{world_name}-{stamp}"        # run_name: the caller's folder name
         run = base / name
         k = 1
-        while run.exists():
+        while (run / "trajectory.csv").exists() or (run.exists() and not run.is_dir()):   # another run's: a new one
             k += 1
             run = base / f"{name}-{k}"
-        run.mkdir()
+        run.mkdir(exist_ok=True)                          # (a folder a recorder started in first is this run's)
         self.dir = run
         self.t0 = float(t0)                              # sim time [s] of the start: times are relative to it
         info = {"world": world_name, "started": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
