@@ -8,27 +8,14 @@ from __future__ import annotations
 import csv
 
 import pytest
-import yaml
 
-from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.report import build_report
 from raspv_experiments.session import read_jsonl
-from raspv_experiments.sweep import load_sweep, run_sweep
+from raspv_experiments.sweep import run_sweep
+from tests.experiments.test_sweeps import short_sweep
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 VOLATILE = {"finished", "session", "run_dir", "bag"}          # where and when, not what happened
-
-
-def sweep_file(tmp_path):
-    (tmp_path / "worlds").mkdir(exist_ok=True)
-    (tmp_path / "worlds" / "hallway.yaml").write_text((EXPERIMENTS_DIR / "worlds" / "hallway.yaml").read_text())
-    doc = yaml.safe_load((EXPERIMENTS_DIR / "example.yaml").read_text())
-    doc["tasks"]["hallway"]["time_limit"] = 5
-    (tmp_path / "short.yaml").write_text(yaml.safe_dump(doc))
-    (tmp_path / "sweep.yaml").write_text(yaml.safe_dump({
-        "name": "repeat", "protocol": "short.yaml", "policy": "navigate", "subjects": 2,
-        "factors": {"spv.mode": ["depth", "grey"]}, "repetitions": 2}))
-    return load_sweep(tmp_path / "sweep.yaml")
 
 
 def records(out):
@@ -37,7 +24,7 @@ def records(out):
 
 
 def test_the_same_sweep_twice_gives_identical_records(tmp_path):
-    sweep = sweep_file(tmp_path)
+    sweep = short_sweep(tmp_path, policy="navigate", repetitions=2, name="repeat")
     runs = []
     for k in (1, 2):
         out = tmp_path / f"run{k}"
