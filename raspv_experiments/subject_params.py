@@ -17,7 +17,7 @@ PARAMS = [
     Param("eye_height", 1.6, "eye height the subject assumes when judging distances", minimum=0.5, maximum=2.2,
           unit="m"),
     Param("lookahead", 1.0, "distance ahead on a trail it steers to", minimum=0.3, maximum=8.0, unit="m"),
-    Param("bright_ratio", 0.85, "a trail is what is at least this fraction of the brightest phosphene",
+    Param("bright_ratio", 0.85, "follow_path: the trail is what is at least this fraction of the brightest phosphene",
           minimum=0.3, maximum=1.0),
     Param("noise", 0.05, "motor noise added to the turning speed (std. dev.)", minimum=0.0, maximum=2.0, unit="rad/s"),
     Param("reaction_time_s", 0.3, "reaction time: a command acts this long (sim time) after the frame it was decided "
