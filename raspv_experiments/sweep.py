@@ -20,8 +20,13 @@ One job is one virtual subject's whole session (every condition, so the design s
 repeated-measures); it runs its own graph on its own ROS domain
 (:func:`raspv_experiments.domains.private_domain`). Results land as sessions in
 ``<out>/sessions/<protocol>/<subject>/`` — the same trial records as ``raspv experiment run``,
-so ``raspv experiment report <out>`` works on sweeps too. Scheduling is the executor's
-(``concurrent.futures`` or Ray); nothing here schedules.
+so ``raspv experiment report <out>`` works on sweeps too; each condition carries its level of every
+factor (``Condition.factors``, the records' ``factors``), so the report has a column per factor and
+its main effects. Scheduling is the executor's (``concurrent.futures`` or Ray); nothing here
+schedules. The driver says how many trials are done over the whole sweep, with the elapsed time
+and an ETA (:class:`SweepProgress`); ``domains`` keeps the graphs' ROS domain ids in a range.
+Scripted sessions repeat exactly (:mod:`raspv_experiments.session_runner`): the same sweep file
+gives the same trial records.
 """
 from __future__ import annotations
 
