@@ -6,7 +6,9 @@
   complete for other tools).
 - ``play BAG``: the ``replay`` node in this process (original timing, rate, loop, remapping,
   ``/clock``; timing error at the end).
-- ``info BAG``: topics, types, counts, rates, QoS, and what is wrong with a damaged bag.
+- ``info BAG``: topics, types, counts, rates, QoS, what is wrong with a damaged bag, and — for a
+  recording of ``/spv/frame`` — the share of frames shown in the configured representation and
+  the fallbacks shown instead (:mod:`raspv_bags.shown_frames`).
 - ``repair BAG``: a complete copy of everything readable.
 - ``from-frames DIR -o BAG``: a bag from colour/depth image folders (TUM layout and others).
 """
@@ -419,9 +421,23 @@ def format_info(reader) -> str:
             qos = ("reliable" if q.reliable else "best-effort") + (" transient-local" if q.transient_local else "")
         unknown = "" if t.known_type else "  (unknown type)"
         lines.append(f"  {t.name:38s} {t.count:7d}  {rate}  {t.msgtype}  {qos}{unknown}")
+    share = _shown(reader)
+    if share is not None:
+        lines.append(f"shown:     {share}")
     for note in reader.notes:
         lines.append(f"note: {note}")
     return "\n".join(lines)
+
+
+def _shown(reader) -> str | None:
+    """What the wearer saw (/spv/frame), one line; None without that topic."""
+    from raspv_bags.shown_frames import bag_shown_share
+
+    try:
+        share = bag_shown_share(reader)
+    except Exception as exc:  # noqa: BLE001 - a frame that does not decode: say so, keep the rest of info
+        return f"/spv/frame could not be read ({type(exc).__name__}: {exc})"
+    return None if share is None else share.describe()
 
 
 # -- repair -------------------------------------------------------------------------------------

@@ -71,6 +71,7 @@ class Task:
 class Condition:
     name: str
     params: dict[str, dict[str, Any]]    # node name → {parameter: value}
+    factors: dict[str, str] = field(default_factory=dict)   # sweeps: factor (NODE.PARAM) → level label
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,7 @@ class Protocol:
     record: RecordSpec
     text: str = ""                       # the file as written (copied into each session)
     controlled: dict[str, dict[str, Any]] = field(default_factory=dict)   # node → {param: base value}
+    factors: dict[str, list[str]] = field(default_factory=dict)   # sweeps: factor → level labels, in order
 
     @property
     def sha256(self) -> str:
@@ -376,6 +378,12 @@ def _tasks(value: Any, path: Path, ck: _Checker) -> list[Task]:
         elif start:
             sx, sy = ck.point(start["position"], f"{key}.start.position")
         yaw = ck.number(start.get("yaw", 0.0), f"{key}.start.yaw", -360, 360) if start else 0.0
+        if start and math.isfinite(sx) and math.isfinite(sy) and math.isfinite(yaw):
+            from raspv_experiments.world_geometry import start_problem
+
+            problem = start_problem(world_ref, sx, sy, math.radians(yaw))
+            if problem:
+                ck.fail(f"{key}.start.position", f"the avatar at [{sx:g}, {sy:g}] {problem}; move the start")
         goal = _goal(body.get("goal"), f"{key}.goal", world_ref, ck)
         limit = ck.number(body.get("time_limit", 60.0), f"{key}.time_limit", positive=True)
         text = body.get("instructions", "")
