@@ -57,7 +57,7 @@ class VizNode(RaspvNode):
                                       ("frame", topics.SPV_FRAME, PhospheneFrame)):
             self.create_subscription(msg_type, topic, lambda raw, n=name: self._latest.__setitem__(n, raw),
                                      LATEST_QOS, raw=True)
-        self._timers = {}
+        self._rate_timers = {}
         self._schedule("cloud", self.params["cloud_rate"], self.publish_cloud)
         self._schedule("phosphenes", self.params["phosphene_rate"], self.publish_phosphenes)
 
@@ -70,11 +70,11 @@ class VizNode(RaspvNode):
         return None
 
     def _schedule(self, name: str, rate_hz: float, callback) -> None:
-        old = self._timers.pop(name, None)
+        old = self._rate_timers.pop(name, None)
         if old is not None:
             self.destroy_timer(old)
         if rate_hz > 0:
-            self._timers[name] = self.create_timer(1.0 / rate_hz, callback)
+            self._rate_timers[name] = self.create_timer(1.0 / rate_hz, callback)
 
     # -- frames -----------------------------------------------------------------------------
     def on_pose(self, msg: PoseStamped) -> None:

@@ -1,0 +1,162 @@
+"""The `foxglove` node seen from a Foxglove WebSocket client (websockets, raspv_viz/foxglove_client.py):
+channels with ros2msg schemas, CDR payloads that decode — with rclpy and with nothing but the
+advertised schema (rosbags) — into what the graph published, subscriptions only while a client
+watches, parameters read and set through the node's own services, and the token gate."""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from rclpy.serialization import deserialize_message, serialize_message
+from rosbags.typesys import Stores, get_typestore
+from sensor_msgs.msg import Image
+from visualization_msgs.msg import MarkerArray
+from websockets.exceptions import InvalidStatus
+
+from raspv_bags.message_types import _types_from_concatenated_msg
+from raspv_common import topics
+from raspv_msgs.msg import PhospheneFrame, SceneStructure
+from raspv_viz.foxglove_client import FoxgloveClient
+from raspv_viz.foxglove_server import FoxgloveServer, ServerConfig, ros2msg_schema
+
+URL = r"Foxglove: open connection → Foxglove WebSocket → (ws://\S+)"
+WATCHED = {topics.SPV_IMAGE: Image, topics.SCENE_STRUCTURE: SceneStructure, topics.VIZ_SCENE: MarkerArray}
+
+
+def decode_with_schema(channel: dict, payload: bytes):
+    """Decode a payload with only what the channel advertised (what the Foxglove app does)."""
+    store = get_typestore(Stores.EMPTY)
+    store.register(_types_from_concatenated_msg(channel["schema"], channel["schemaName"]))
+    return store.deserialize_cdr(payload, channel["schemaName"])
+
+
+@pytest.mark.integration
+@pytest.mark.slow
+def test_foxglove_client_sees_the_graph_and_sets_a_parameter(graph, probe):
+    g = graph({"launch": {"nodes": ["synthetic", "scene", "spv", "viz", "foxglove"]},
+               "synthetic": {"ros__parameters": {"rate": 10.0}},
+               "spv": {"ros__parameters": {"mode": "chess_floor"}},
+               "foxglove": {"ros__parameters": {"port": 0}}})
+    url = g.wait_for_output(URL, timeout=90).group(1)
+    published = {topic: probe.subscribe(topic, cls) for topic, cls in WATCHED.items()}
+    with FoxgloveClient(url) as client:
+        channels = client.wait_for_channels([*WATCHED, topics.SPV_MAP, "/raspv/latency"], timeout=90)
+        for topic, cls in WATCHED.items():
+            ch = channels[topic]
+            assert ch["encoding"] == "cdr" and ch["schemaEncoding"] == "ros2msg"
+            assert ch["schemaName"] == cls.__module__.split(".")[0] + "/msg/" + cls.__name__
+        assert "MSG: raspv_msgs/Plane" in channels[topics.SCENE_STRUCTURE]["schema"]
+        # nobody watches yet: the node takes none of these topics
+        assert not _foxglove_subscribes(probe, topics.SPV_IMAGE)
+
+        client.subscribe(list(WATCHED))
+        for topic, cls in WATCHED.items():
+            got = client.messages(topic, count=2, timeout=90)[-1]
+            msg = deserialize_message(got.payload, cls)
+            stamp = msg.markers[0].header.stamp if cls is MarkerArray else msg.header.stamp
+            same = published[topic].wait(1, timeout=30, predicate=lambda m: _stamp(m) == stamp)[0]
+            assert same_values(same, msg), topic       # (CDR padding bytes are not defined: compare values)
+            foreign = decode_with_schema(channels[topic], got.payload)
+            if cls is Image:
+                assert (foreign.width, foreign.height, foreign.encoding) == (msg.width, msg.height, msg.encoding)
+                np.testing.assert_array_equal(foreign.data, np.frombuffer(bytes(msg.data), np.uint8))
+            elif cls is SceneStructure:
+                assert len(foreign.planes) == len(msg.planes) and foreign.floor_found == msg.floor_found
+                np.testing.assert_array_equal([[q.x, q.y, q.z] for q in foreign.planes[0].hull],
+                                              [[q.x, q.y, q.z] for q in msg.planes[0].hull])
+            else:
+                assert [m.ns for m in foreign.markers] == [m.ns for m in msg.markers]
+        assert _foxglove_subscribes(probe, topics.SPV_IMAGE)
+
+        # parameters: read, set (reaches the spv node and its output), refused with the reason shown
+        assert client.get_parameters(["/spv.mode"]) == {"/spv.mode": "chess_floor"}
+        assert "/spv.mode" in client.get_parameters()                          # every node's parameters
+        assert client.set_parameters({"/spv.mode": "depth"}) == {"/spv.mode": "depth"}
+        assert probe.get_params("spv", ["mode"]) == {"mode": "depth"}
+        probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=30, predicate=lambda f: f.mode == "depth")
+        assert client.set_parameters({"/spv.mode": "nonsense"}) == {"/spv.mode": "depth"}
+        client.pump(1.0)
+        assert any("spv.mode" in s and "nonsense" in s for s in client.statuses)
+
+        client.subscribe(["/raspv/latency"])
+        assert b"camera_to_display_ms" in client.messages("/raspv/latency", timeout=60)[0].payload
+        client.unsubscribe([topics.SPV_IMAGE])
+        _wait(lambda: not _foxglove_subscribes(probe, topics.SPV_IMAGE), "the node still takes /spv/image")
+
+
+def same_values(a, b) -> bool:
+    """Field-by-field equality of two ROS messages, NaN equal to NaN."""
+    if hasattr(a, "get_fields_and_field_types"):
+        return type(a) is type(b) and all(same_values(getattr(a, f), getattr(b, f)) for f in a.get_fields_and_field_types())
+    if type(a).__name__ in ("array", "ndarray"):                  # numeric arrays (image data, levels)
+        x, y = np.asarray(a), np.asarray(b)
+        return x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f")
+    if isinstance(a, (list, tuple)):
+        return len(a) == len(b) and all(same_values(x, y) for x, y in zip(a, b))
+    if isinstance(a, float):
+        return a == b or (a != a and b != b)
+    return a == b
+
+
+def _stamp(m):
+    return m.markers[0].header.stamp if isinstance(m, MarkerArray) else m.header.stamp
+
+
+def _foxglove_subscribes(probe, topic: str) -> bool:
+    return any(i.node_name == "foxglove" for i in probe.node.get_subscriptions_info_by_topic(topic))
+
+
+def _wait(condition, failure: str, timeout: float = 30.0) -> None:
+    import time
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, failure
+        time.sleep(0.1)
+
+
+def test_token_gate_off_loopback_and_subscription_counting():
+    events = []
+    server = FoxgloveServer(ServerConfig(host="0.0.0.0", port=0, sysinfo_topic=""),
+                            on_first_subscriber=lambda t: events.append(("first", t)),
+                            on_last_unsubscribed=lambda t: events.append(("last", t)))
+    server.start()
+    try:
+        assert server.token and re.search(r"/\?token=", server.url())
+        server.add_channel("/chatter", "std_msgs/msg/String", ros2msg_schema("std_msgs/msg/String"))
+        plain = f"ws://127.0.0.1:{server.port}"
+        for wrong in (plain, plain + "/?token=nope"):
+            with pytest.raises(InvalidStatus, match="403"):
+                FoxgloveClient(wrong)
+        with FoxgloveClient(server.url().replace("0.0.0.0", "127.0.0.1")) as a, FoxgloveClient(server.url()) as b:
+            for c in (a, b):
+                c.wait_for_channels(["/chatter"], timeout=10)
+                c.subscribe(["/chatter"])
+            _wait(lambda: server.watched("/chatter"), "subscription not seen", 10)
+            payload = serialize_message(_string("hello"))
+            server.log("/chatter", payload, 42)
+            for c in (a, b):
+                got = c.messages("/chatter", timeout=10)[0]
+                assert got.payload == payload and got.log_time_ns == 42
+            a.unsubscribe(["/chatter"])
+            b.pump(0.5)
+            assert server.watched("/chatter")                                  # b still watches
+            b.unsubscribe(["/chatter"])
+            _wait(lambda: not server.watched("/chatter"), "last unsubscribe not seen", 10)
+        assert events == [("first", "/chatter"), ("last", "/chatter")]
+    finally:
+        server.stop()
+
+
+def _string(text: str):
+    from std_msgs.msg import String
+    return String(data=text)
+
+
+def test_ros2msg_schemas_name_every_dependency():
+    text = ros2msg_schema("raspv_msgs/msg/StairDetection").decode()
+    blocks = [b.strip().splitlines()[0] for b in text.split("=" * 80)[1:]]
+    assert set(blocks) == {"MSG: std_msgs/Header", "MSG: builtin_interfaces/Time", "MSG: geometry_msgs/Pose",
+                           "MSG: geometry_msgs/Point", "MSG: geometry_msgs/Quaternion", "MSG: raspv_msgs/Step"}
+    assert ros2msg_schema("visualization_msgs/msg/MarkerArray") is not None
+    assert ros2msg_schema("nobody_msgs/msg/Nothing") is None
