@@ -40,6 +40,9 @@ class FoxgloveClient:
         self._ids = itertools.count(1)
         self._answers: dict[str, list[dict[str, Any]]] = {}
         self.inbox: list[Received] = []
+        self.keep = True                                    # False: only count (long benchmark runs)
+        self.counts: dict[str, int] = {}                    # topic → messages received
+        self.bytes: dict[str, int] = {}                     # topic → payload bytes received
 
     def close(self) -> None:
         self._connection.__exit__(None, None, None)
@@ -67,8 +70,12 @@ class FoxgloveClient:
         if isinstance(frame, bytes):
             if frame and frame[0] == MESSAGE_DATA:
                 sub, log_time = struct.unpack_from("<IQ", frame, 1)
-                if sub in self._subs:
-                    self.inbox.append(Received(self._subs[sub], log_time, frame[13:]))
+                topic = self._subs.get(sub)
+                if topic is not None:
+                    self.counts[topic] = self.counts.get(topic, 0) + 1
+                    self.bytes[topic] = self.bytes.get(topic, 0) + len(frame) - 13
+                    if self.keep:
+                        self.inbox.append(Received(topic, log_time, frame[13:]))
             return
         msg = json.loads(frame)
         op = msg.get("op")

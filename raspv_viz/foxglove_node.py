@@ -13,7 +13,6 @@ Off the headset path: normal scheduling; the SDK's server runs in its own thread
 """
 from __future__ import annotations
 
-import importlib
 import json
 import time
 from typing import Any
@@ -27,6 +26,7 @@ from raspv_common import topics
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
+from raspv_common.ros_introspection import message_class
 from raspv_viz.foxglove_params import PARAMS
 from raspv_viz.foxglove_server import FoxgloveServer, ServerConfig, ros2msg_schema
 
@@ -41,12 +41,11 @@ _PYTHON_TYPES = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETE
                  float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING}
 
 
-def message_class(msgtype: str):
+def installed_class(msgtype: str):
     """``pkg/msg/Name`` → its Python class, None when the package is not installed."""
-    pkg, _, name = msgtype.partition("/msg/")
     try:
-        return getattr(importlib.import_module(f"{pkg}.msg"), name)
-    except (ImportError, AttributeError, ValueError):
+        return message_class(msgtype)
+    except ValueError:
         return None
 
 
@@ -93,7 +92,7 @@ class FoxgloveNode(RaspvNode):
             if self._channel_types.get(topic) == msgtype:
                 continue
             schema = ros2msg_schema(msgtype)
-            if schema is None or message_class(msgtype) is None:
+            if schema is None or installed_class(msgtype) is None:
                 self.warn_throttled(f"type-{msgtype}", f"{topic}: type {msgtype} not installed here; not served", 60.0)
                 continue
             if topic in self._channel_types:
@@ -125,7 +124,7 @@ class FoxgloveNode(RaspvNode):
         for topic in needed - set(self._taken):
             msgtype = self._channel_types[topic]
             self._taken[topic] = self.create_subscription(
-                message_class(msgtype), topic, lambda raw, t=topic: self._forward(t, raw), self._qos_for(topic),
+                installed_class(msgtype), topic, lambda raw, t=topic: self._forward(t, raw), self._qos_for(topic),
                 raw=True)
 
     def _qos_for(self, topic: str) -> QoSProfile:
