@@ -140,8 +140,12 @@ class FoxgloveServer:
             channel.log(data, log_time=log_time_ns)
 
     def watched(self, topic: str) -> bool:
+        return self.watchers(topic) > 0
+
+    def watchers(self, topic: str) -> int:
+        """How many clients subscribe to the channel of ``topic``."""
         with self._lock:
-            return bool(self._subscribers.get(topic))
+            return len(self._subscribers.get(topic, ()))
 
     def status(self, message: str) -> None:
         """A warning every connected client shows (e.g. a refused parameter change and why)."""

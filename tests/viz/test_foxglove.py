@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, PointCloud2
 from visualization_msgs.msg import MarkerArray
 from websockets.exceptions import InvalidStatus
 
@@ -69,6 +69,13 @@ def test_foxglove_client_sees_the_graph_and_sets_a_parameter(graph, probe):
                 assert [m.ns for m in foreign.markers] == [m.ns for m in msg.markers]
         assert _foxglove_subscribes(probe, topics.SPV_IMAGE)
 
+        # the viz node's cloud and phosphenes, in the world frame (the synthetic source has a pose)
+        cloud = probe.wait_for_message(topics.VIZ_CLOUD, PointCloud2, timeout=60)
+        assert cloud.header.frame_id == "world" and cloud.width > 100 and [f.name for f in cloud.fields][-1] == "rgb"
+        spheres = probe.wait_for_message(topics.VIZ_PHOSPHENES, MarkerArray, timeout=60,
+                                         predicate=lambda m: len(m.markers) == 2)
+        assert spheres.markers[1].ns == "phosphenes" and len(spheres.markers[1].points) > 100
+
         # parameters: read, set (reaches the spv node and its output), refused with the reason shown
         assert client.get_parameters(["/spv.mode"]) == {"/spv.mode": "chess_floor"}
         assert "/spv.mode" in client.get_parameters()                          # every node's parameters
@@ -97,6 +104,19 @@ def same_values(a, b) -> bool:
     if isinstance(a, float):
         return a == b or (a != a and b != b)
     return a == b
+
+
+@pytest.mark.integration
+def test_a_busy_port_is_one_line(graph):
+    import socket
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        g = graph({"launch": {"nodes": ["foxglove"]}, "foxglove": {"ros__parameters": {"port": busy.getsockname()[1]}}})
+        line = g.wait_for_output(r"\[foxglove\] configuration error: [^\n]*", timeout=60).group(0)
+    assert "cannot serve on 127.0.0.1:" in line and "in use" in line
+    _wait(lambda: not g.running(), "the graph did not stop")
+    assert "Traceback" not in g.output
 
 
 def _stamp(m):
@@ -130,19 +150,18 @@ def test_token_gate_off_loopback_and_subscription_counting():
                 FoxgloveClient(wrong)
         with FoxgloveClient(server.url().replace("0.0.0.0", "127.0.0.1")) as a, FoxgloveClient(server.url()) as b:
             for c in (a, b):
-                c.wait_for_channels(["/chatter"], timeout=10)
+                c.wait_for_channels(["/chatter"], timeout=30)
                 c.subscribe(["/chatter"])
-            _wait(lambda: server.watched("/chatter"), "subscription not seen", 10)
+            _wait(lambda: server.watchers("/chatter") == 2, "subscriptions not seen", 30)
             payload = serialize_message(_string("hello"))
             server.log("/chatter", payload, 42)
             for c in (a, b):
-                got = c.messages("/chatter", timeout=10)[0]
+                got = c.messages("/chatter", timeout=30)[0]
                 assert got.payload == payload and got.log_time_ns == 42
             a.unsubscribe(["/chatter"])
-            b.pump(0.5)
-            assert server.watched("/chatter")                                  # b still watches
+            _wait(lambda: server.watchers("/chatter") == 1, "unsubscribe not seen", 30)   # b still watches
             b.unsubscribe(["/chatter"])
-            _wait(lambda: not server.watched("/chatter"), "last unsubscribe not seen", 10)
+            _wait(lambda: not server.watched("/chatter"), "last unsubscribe not seen", 30)
         assert events == [("first", "/chatter"), ("last", "/chatter")]
     finally:
         server.stop()
