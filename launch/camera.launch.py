@@ -4,27 +4,16 @@ real RGB-D camera (or its recording), scene perception, RGB-D odometry, phosphen
 Run (system ROS 2 Jazzy, after `colcon build` of this repository, see docs/DEVELOPING.md):
     ros2 launch raspv_bringup camera.launch.py
 """
-from launch import LaunchDescription
-from launch.actions import SetEnvironmentVariable
-from launch.substitutions import EnvironmentVariable, PathJoinSubstitution
-from launch_ros.actions import Node
-from launch_ros.substitutions import FindPackageShare
+from raspv_bringup.ros2_launch import launch_description
 
-
-def default_env(name, value):
-    """Set ``name`` to ``value`` unless the environment already has it (as `raspv launch` does)."""
-    return SetEnvironmentVariable(name, EnvironmentVariable(name, default_value=value))
+NODES = [
+    {'package': 'raspv_camera', 'executable': 'camera', 'name': 'camera', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'driver': 'auto', 'fps': 30.0, 'height': 480, 'width': 640}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': False, 'parameters': [{'mounting': 'head'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'odometry', 'name': 'odometry', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': False, 'parameters': [{'device': 'optimist', 'mode': 'chess_floor'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+]
 
 
 def generate_launch_description():
-    shm_profile = PathJoinSubstitution([FindPackageShare("raspv_bringup"), "config", "fastdds_shm.xml"])
-    return LaunchDescription([
-        default_env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp"),
-        default_env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST"),
-        default_env("FASTRTPS_DEFAULT_PROFILES_FILE", shm_profile),
-        Node(package='raspv_camera', executable='camera', name='camera', output="screen", respawn=True, respawn_delay=0.0, parameters=[{'driver': 'auto', 'fps': 30.0, 'height': 480, 'width': 640}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_perception', executable='scene', name='scene', output="screen", respawn=False, parameters=[{'mounting': 'head'}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_perception', executable='odometry', name='odometry', output="screen", respawn=False, parameters=[{}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_spv', executable='spv', name='spv', output="screen", respawn=False, parameters=[{'device': 'optimist', 'mode': 'chess_floor'}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_hmd', executable='bridge', name='bridge', output="screen", respawn=False, parameters=[{}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-    ])
+    return launch_description(NODES)

@@ -4,27 +4,16 @@ stairs world, scene perception, stair detection, stairs overlay on Chess-Floor, 
 Run (system ROS 2 Jazzy, after `colcon build` of this repository, see docs/DEVELOPING.md):
     ros2 launch raspv_bringup stairs.launch.py
 """
-from launch import LaunchDescription
-from launch.actions import SetEnvironmentVariable
-from launch.substitutions import EnvironmentVariable, PathJoinSubstitution
-from launch_ros.actions import Node
-from launch_ros.substitutions import FindPackageShare
+from raspv_bringup.ros2_launch import launch_description
 
-
-def default_env(name, value):
-    """Set ``name`` to ``value`` unless the environment already has it (as `raspv launch` does)."""
-    return SetEnvironmentVariable(name, EnvironmentVariable(name, default_value=value))
+NODES = [
+    {'package': 'raspv_sim', 'executable': 'sim', 'name': 'sim', 'respawn': False, 'parameters': [{'log_dir': 'runs', 'margin_deg': 10.0, 'world': 'stairs'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'stairs', 'name': 'stairs', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': False, 'parameters': [{'device': 'optimist', 'mode': 'chess_floor', 'overlays': ['stairs']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+]
 
 
 def generate_launch_description():
-    shm_profile = PathJoinSubstitution([FindPackageShare("raspv_bringup"), "config", "fastdds_shm.xml"])
-    return LaunchDescription([
-        default_env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp"),
-        default_env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST"),
-        default_env("FASTRTPS_DEFAULT_PROFILES_FILE", shm_profile),
-        Node(package='raspv_sim', executable='sim', name='sim', output="screen", respawn=False, parameters=[{'log_dir': 'runs', 'margin_deg': 10.0, 'world': 'stairs'}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_perception', executable='scene', name='scene', output="screen", respawn=False, parameters=[{}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_perception', executable='stairs', name='stairs', output="screen", respawn=False, parameters=[{}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_spv', executable='spv', name='spv', output="screen", respawn=False, parameters=[{'device': 'optimist', 'mode': 'chess_floor', 'overlays': ['stairs']}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-        Node(package='raspv_hmd', executable='bridge', name='bridge', output="screen", respawn=False, parameters=[{}], additional_env={'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}),
-    ])
+    return launch_description(NODES)

@@ -109,18 +109,17 @@ class VizNode(RaspvNode):
 
     # -- inputs -----------------------------------------------------------------------------
     def on_scene(self, msg: SceneStructure) -> None:
-        target = self.target_from_camera(msg.header)
-        if target is not None:
-            frame, T = target
-            self.pub_scene.publish(marker_array(scene_markers(structure_from_msg(msg), T),
-                                                Header(stamp=msg.header.stamp, frame_id=frame)))
+        self._publish_from_camera(self.pub_scene, msg.header, lambda T: scene_markers(structure_from_msg(msg), T))
 
     def on_stairs(self, msg: StairDetection) -> None:
-        target = self.target_from_camera(msg.header)
+        self._publish_from_camera(self.pub_stairs, msg.header, lambda T: stair_markers(staircase_from_msg(msg), T))
+
+    def _publish_from_camera(self, publisher, header: Header, shapes) -> None:
+        """Markers ``shapes(T)`` of camera-frame data stamped ``header``, in the target frame."""
+        target = self.target_from_camera(header)
         if target is not None:
             frame, T = target
-            self.pub_stairs.publish(marker_array(stair_markers(staircase_from_msg(msg), T),
-                                                 Header(stamp=msg.header.stamp, frame_id=frame)))
+            publisher.publish(marker_array(shapes(T), Header(stamp=header.stamp, frame_id=frame)))
 
     def on_path(self, msg: PathMsg) -> None:
         target = self.target_from_world()

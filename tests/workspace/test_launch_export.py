@@ -1,13 +1,15 @@
 """`raspv export-launch`: ros2 launch files with the graph's nodes, parameters and restart policy.
 
 ros2launch is not on PyPI, so the generated files are parsed (ast) and every node, parameter,
-environment variable and the restart policy are checked against the graph they came from.
+environment variable and the restart policy are checked against the graph they came from; the
+file's own code runs against stand-ins of `launch` and `launch_ros` that record what it builds.
 """
 from __future__ import annotations
 
 import ast
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import pytest
@@ -21,11 +23,11 @@ RASPV = [sys.executable, "-m", "raspv_bringup.cli"]
 
 
 def launch_nodes(text: str) -> list[dict]:
-    """Every ``Node(...)`` call of a launch file as {keyword: literal value}."""
+    """The ``NODES`` literal of a launch file: Node keyword arguments per node."""
     tree = ast.parse(text)
     assert any(isinstance(n, ast.FunctionDef) and n.name == "generate_launch_description" for n in tree.body)
-    calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call) and getattr(n.func, "id", None) == "Node"]
-    return [{k.arg: ast.literal_eval(k.value) for k in call.keywords} for call in calls]
+    [nodes] = [n.value for n in tree.body if isinstance(n, ast.Assign) and [t.id for t in n.targets] == ["NODES"]]
+    return ast.literal_eval(nodes)
 
 
 def assert_matches_graph(text: str, graph) -> None:
@@ -90,3 +92,33 @@ def test_bad_graph_is_one_line(tmp_path):
     missing = subprocess.run([*RASPV, "export-launch", str(tmp_path / "none.yaml")], capture_output=True, text=True,
                              timeout=120)
     assert missing.returncode == 2 and "no such graph file" in missing.stderr
+
+
+def test_the_launch_file_builds_its_nodes_after_the_middleware_defaults(monkeypatch):
+    """The file's code against stand-ins of launch/launch_ros (not on PyPI) that record calls."""
+    built = []
+
+    def recorder(kind):
+        return lambda *args, **kwargs: built.append((kind, args, kwargs)) or (kind, args, kwargs)
+    fakes = {"launch": {"LaunchDescription": recorder("LaunchDescription")},
+             "launch.actions": {"SetEnvironmentVariable": recorder("SetEnvironmentVariable")},
+             "launch.substitutions": {"EnvironmentVariable": recorder("EnvironmentVariable"),
+                                      "PathJoinSubstitution": recorder("PathJoinSubstitution")},
+             "launch_ros.actions": {"Node": recorder("Node")},
+             "launch_ros.substitutions": {"FindPackageShare": recorder("FindPackageShare")}}
+    for name, attrs in {**fakes, "launch_ros": {}}.items():
+        module = types.ModuleType(name)
+        module.__dict__.update(attrs)
+        monkeypatch.setitem(sys.modules, name, module)
+    path = LAUNCH_DIR / "demo.launch.py"
+    namespace: dict = {}
+    exec(compile(path.read_text(), str(path), "exec"), namespace)
+    kind, (actions,), _ = namespace["generate_launch_description"]()
+    assert kind == "LaunchDescription"
+    env = [a[1][0] for a in actions if a[0] == "SetEnvironmentVariable"]
+    assert env == ["RMW_IMPLEMENTATION", "ROS_AUTOMATIC_DISCOVERY_RANGE", "FASTRTPS_DEFAULT_PROFILES_FILE"]
+    nodes = [a[2] for a in actions if a[0] == "Node"]
+    graph = load_graph(shipped_graphs()[[p.stem for p in shipped_graphs()].index("demo")], check_files=False)
+    assert [n["name"] for n in nodes] == [e.name for e in graph.nodes]
+    assert all(n["output"] == "screen" for n in nodes)
+    assert actions.index(next(a for a in actions if a[0] == "Node")) == len(env)      # env first
