@@ -34,9 +34,11 @@ def test_package_dependencies_follow_the_imports():
 
 
 def colcon_env() -> dict[str, str]:
-    """The venv's ROS (ament, rosidl, cmake modules) for building raspv_msgs, as tools/install.sh."""
+    """The venv's ROS (ament, rosidl, cmake modules) for building raspv_msgs, as tools/install.sh.
+    MAKEFLAGS: colcon-cmake otherwise adds ``-l<cores>``, and make then runs one job at a time
+    whenever the machine's load average is above the core count."""
     return {**os.environ, "AMENT_PREFIX_PATH": str(VENV), "CMAKE_PREFIX_PATH": str(VENV),
-            "PATH": f"{VENV / 'bin'}:{os.environ['PATH']}"}
+            "PATH": f"{VENV / 'bin'}:{os.environ['PATH']}", "MAKEFLAGS": f"-j{os.cpu_count() or 2}"}
 
 
 def sourced(install: Path) -> dict[str, str]:
