@@ -61,7 +61,8 @@ def test_colcon_build_of_the_repository(tmp_path, probe):
     assert build.returncode == 0, build.stdout[-4000:] + build.stderr[-4000:]
     install = ws / "install"
     expected = {"raspv_msgs", *package_names()}
-    assert f"Summary: {len(expected)} packages finished" in build.stdout
+    finished = {line.split()[2] for line in build.stdout.splitlines() if line.startswith("Finished <<< ")}
+    assert finished == expected, build.stdout[-3000:]
 
     env = sourced(install)
     index = subprocess.run([sys.executable, "-c", "from ament_index_python.packages import get_packages_with_prefixes as g;"
