@@ -67,7 +67,7 @@ def test_colcon_build_of_the_repository(tmp_path, probe):
     env = sourced(install)
     index = subprocess.run([sys.executable, "-c", "from ament_index_python.packages import get_packages_with_prefixes as g;"
                             "print('\\n'.join(f'{k} {v}' for k, v in sorted(g().items())))"],
-                           env=env, capture_output=True, text=True, check=True, timeout=120).stdout.split("\n")
+                           env=env, cwd=tmp_path, capture_output=True, text=True, check=True, timeout=120).stdout.split("\n")
     listed = dict(line.split(" ", 1) for line in index if line)
     assert {p: Path(listed.get(p, "")) for p in expected} == {p: install / p for p in expected}
     for kind, spec in NODES.items():                                    # what `ros2 run PKG KIND` runs
@@ -76,16 +76,17 @@ def test_colcon_build_of_the_repository(tmp_path, probe):
     assert (install / "raspv_bringup" / "share" / "raspv_bringup" / "launch" / "demo.launch.py").is_file()
     assert (install / "raspv_viz" / "share" / "raspv_viz" / "config" / "raspv.rviz").is_file()
 
-    # the packages now import from the install, config/ beside them included
+    # the packages now import from the install, config/ beside them included (cwd: not the repository)
     where = subprocess.run([sys.executable, "-c", "import raspv_camera, raspv_msgs.msg, raspv_spv.device as d;"
                             "print(raspv_camera.__file__, raspv_msgs.msg.__file__, d.DEVICES_DIR.is_dir())"],
-                           env=env, capture_output=True, text=True, check=True, timeout=120).stdout.split()
+                           env=env, cwd=tmp_path, capture_output=True, text=True, check=True, timeout=120).stdout.split()
     assert where[0].startswith(str(install / "raspv_camera")) and where[1].startswith(str(install / "raspv_msgs"))
     assert where[2] == "True"
 
     node = subprocess.Popen([str(install / "raspv_camera" / "lib" / "raspv_camera" / "synthetic"),
                              "--ros-args", "-p", "rate:=5.0", "-p", "width:=160", "-p", "height:=120"],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+                            env=env, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            start_new_session=True)
     try:
         msg = probe.wait_for_message(topics.COLOR, Image, timeout=120)
         assert (msg.width, msg.height) == (160, 120)
