@@ -52,6 +52,7 @@ def measure(with_views: bool, seconds: float, warmup: float, workdir: Path) -> d
     from raspv_common.qos import SENSOR_QOS
     from raspv_viz.foxglove_client import FoxgloveClient
 
+    workdir.mkdir(parents=True, exist_ok=True)
     graph = RunningGraph(demo_spec(with_views), workdir)
     probe = Probe("foxglove_bench")
     arrivals: list[float] = []
