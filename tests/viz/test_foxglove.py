@@ -179,3 +179,17 @@ def test_ros2msg_schemas_name_every_dependency():
                            "MSG: geometry_msgs/Point", "MSG: geometry_msgs/Quaternion", "MSG: raspv_msgs/Step"}
     assert ros2msg_schema("visualization_msgs/msg/MarkerArray") is not None
     assert ros2msg_schema("nobody_msgs/msg/Nothing") is None
+
+
+def test_latency_sample_from_a_raw_phosphene_frame():
+    from builtin_interfaces.msg import Time
+
+    from raspv_viz.foxglove_node import latency_sample
+    frame = PhospheneFrame(mode="depth", brightness=[0.5] * 1000, levels=[3] * 1000)
+    frame.header.stamp, frame.source_stamp, frame.scene_stamp = Time(sec=10, nanosec=50_000_000), \
+        Time(sec=10, nanosec=10_000_000), Time(sec=9, nanosec=960_000_000)
+    sample = latency_sample(serialize_message(frame))
+    assert sample["mode"] == "depth"
+    assert sample["camera_to_display_ms"] == pytest.approx(40.0) and sample["scene_age_ms"] == pytest.approx(50.0)
+    frame.scene_stamp = Time()
+    assert "scene_age_ms" not in latency_sample(serialize_message(frame))        # no scene result used
