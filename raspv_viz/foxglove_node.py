@@ -14,10 +14,13 @@ Off the headset path: normal scheduling; the SDK's server runs in its own thread
 from __future__ import annotations
 
 import json
+import threading
 import time
 from typing import Any
 
+import rclpy
 from rcl_interfaces.msg import ParameterType
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from raspv_bags.message_types import typestore
@@ -74,6 +77,14 @@ class FoxgloveNode(RaspvNode):
         self._channel_types: dict[str, str] = {}     # channel topic → message type
         self._param_clients: dict[str, ParamClient] = {}
         p = self.params
+        # Parameter clients (4 per node of the graph) live on a node of their own, spun by its own
+        # thread: in this node's wait set they made every forwarded message cost more.
+        self._param_node = None
+        if p["parameters"]:
+            self._param_node = rclpy.create_node(f"{self.get_name()}_parameters", context=self.context)
+            self._param_executor = SingleThreadedExecutor(context=self.context)
+            self._param_executor.add_node(self._param_node)
+            threading.Thread(target=self._spin_parameters, name="foxglove-parameters", daemon=True).start()
         self.server = FoxgloveServer(
             ServerConfig(host=p["host"], port=p["port"], token=p["token"], sysinfo_topic="/sysinfo" if p["sysinfo"] else ""),
             on_first_subscriber=self._changed, on_last_unsubscribed=self._changed,
@@ -90,6 +101,15 @@ class FoxgloveNode(RaspvNode):
 
     def close(self) -> None:
         self.server.stop()
+        if self._param_node is not None:
+            self._param_executor.shutdown(timeout_sec=1.0)
+            self._param_node.destroy_node()
+
+    def _spin_parameters(self) -> None:
+        try:
+            self._param_executor.spin()
+        except (ExternalShutdownException, RuntimeError):   # the context shut down with the process
+            pass
 
     # -- channels ----------------------------------------------------------------------------
     def discover(self) -> None:
@@ -114,9 +134,6 @@ class FoxgloveNode(RaspvNode):
             del self._channel_types[topic]
             self.server.remove_channel(topic)
         self._update_subscriptions()
-        if self.params["parameters"]:
-            for node in self._graph_nodes():      # parameter clients made here, on the executor's thread
-                self._client(node)
 
     def _changed(self, _topic: str) -> None:
         """A channel got its first or lost its last client (SDK thread): wake the executor."""
@@ -158,13 +175,13 @@ class FoxgloveNode(RaspvNode):
     # -- parameters (called on the SDK's thread; the executor answers the services) ----------
     def _client(self, node: str) -> ParamClient:
         if node not in self._param_clients:
-            self._param_clients[node] = ParamClient(self, node)
+            self._param_clients[node] = ParamClient(self._param_node, node)
         return self._param_clients[node]
 
     def _graph_nodes(self) -> list[str]:
-        me = self.get_fully_qualified_name()
+        mine = {self.get_fully_qualified_name(), self._param_node.get_fully_qualified_name()}
         names = [(ns.rstrip("/") + "/" + n) for n, ns in self.get_node_names_and_namespaces()]
-        return sorted({n for n in names if n != me and not n.rsplit("/", 1)[-1].startswith("_")})
+        return sorted({n for n in names if n not in mine and not n.rsplit("/", 1)[-1].startswith("_")})
 
     def _ask(self, client: ParamClient, ask) -> Any:
         ok, answer = client.ask_until_answered(ask, PARAM_TIMEOUT_S, retry_s=1.0)
