@@ -17,7 +17,7 @@ from typing import Any
 
 from websockets.sync.client import connect
 
-SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]   # foxglove-sdk 0.30 accepts only the first
 MESSAGE_DATA = 0x01
 
 
