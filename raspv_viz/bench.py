@@ -29,9 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--warmup", type=float, default=8.0, help="time after the first phosphene image before "
                         "measuring [s] (default 8)")
     parser.add_argument("--quick", action="store_true", help="only the run with the live views, 8 s (tests)")
+    parser.add_argument("--max-rate", type=float, default=0.0, metavar="HZ",
+                        help="the foxglove node's max_rate (default 0: every message)")
 
 
-def demo_spec(with_views: bool) -> dict:
+def demo_spec(with_views: bool, max_rate: float = 0.0) -> dict:
     import yaml
 
     from raspv_bringup.graph import CONFIG_DIR
@@ -40,11 +42,11 @@ def demo_spec(with_views: bool) -> dict:
     spec.setdefault("bridge", {"ros__parameters": {}})["ros__parameters"].update({"port": 0, "tcp_port": -1})
     if with_views:
         spec["launch"]["nodes"] += [{"kind": "viz"}, {"kind": "foxglove"}]
-        spec["foxglove"] = {"ros__parameters": {"port": 0}}
+        spec["foxglove"] = {"ros__parameters": {"port": 0, "max_rate": float(max_rate)}}
     return spec
 
 
-def measure(with_views: bool, seconds: float, warmup: float, workdir: Path) -> dict:
+def measure(with_views: bool, seconds: float, warmup: float, workdir: Path, max_rate: float = 0.0) -> dict:
     """One run: {"cpu": {kind: % of a core}, "display_hz", "client_hz": {topic: Hz}, "machine"}."""
     from sensor_msgs.msg import Image
 
@@ -53,7 +55,7 @@ def measure(with_views: bool, seconds: float, warmup: float, workdir: Path) -> d
     from raspv_viz.foxglove_client import FoxgloveClient
 
     workdir.mkdir(parents=True, exist_ok=True)
-    graph = RunningGraph(demo_spec(with_views), workdir)
+    graph = RunningGraph(demo_spec(with_views, max_rate), workdir)
     probe = Probe("foxglove_bench")
     arrivals: list[float] = []
     client = None
@@ -110,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
             label = "with viz + foxglove" if with_views else "plain demo graph"
             print(f"raspv bench foxglove: {label}, {seconds:.0f} s after {args.warmup:.0f} s of warm-up ...", flush=True)
             try:
-                results[with_views] = r = measure(with_views, seconds, args.warmup, Path(tmp) / label.replace(" ", "_"))
+                results[with_views] = r = measure(with_views, seconds, args.warmup, Path(tmp) / label.replace(" ", "_"),
+                                                  args.max_rate)
             except (GraphFailed, TimeoutError) as exc:
                 print(f"raspv bench foxglove: the graph failed: {exc}")
                 return 1
@@ -120,7 +123,8 @@ def run(args: argparse.Namespace) -> int:
             if r["client_hz"]:
                 print("  Foxglove client received: " + ", ".join(f"{t} {hz:.1f} Hz" for t, hz in r["client_hz"].items()))
     on = results[True]
-    print(f"foxglove node: {on['cpu'].get('foxglove', float('nan')):.1f} % of one core (target ≤ 10 %), "
+    print(f"foxglove node (max_rate {args.max_rate:g} Hz): {on['cpu'].get('foxglove', float('nan')):.1f} % of one core "
+          f"(target ≤ 10 %), "
           f"viz node: {on['cpu'].get('viz', float('nan')):.1f} %")
     if False in results:
         off = results[False]

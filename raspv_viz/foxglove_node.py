@@ -76,6 +76,7 @@ class FoxgloveNode(RaspvNode):
         self._taken: dict[str, Any] = {}     # ROS topic → subscription
         self._channel_types: dict[str, str] = {}     # channel topic → message type
         self._param_clients: dict[str, ParamClient] = {}
+        self._last_sent: dict[str, int] = {}         # topic → time of the last forwarded message [ns]
         p = self.params
         # Parameter clients (4 per node of the graph) live on a node of their own, spun by its own
         # thread: in this node's wait set they made every forwarded message cost more.
@@ -167,6 +168,11 @@ class FoxgloveNode(RaspvNode):
 
     def _forward(self, topic: str, raw: bytes) -> None:
         now = time.time_ns()
+        max_rate = self.params["max_rate"]
+        if max_rate > 0:                         # thin fast topics for viewers (max_rate)
+            if now - self._last_sent.get(topic, 0) < 1e9 / max_rate:
+                return
+            self._last_sent[topic] = now
         if self.server.watched(topic):
             self.server.log(topic, raw, now)
         if topic == topics.SPV_FRAME and self.server.watched(LATENCY):

@@ -10,6 +10,8 @@ PARAMS = [
           "and host is not loopback", dynamic=False),
     Param("topics", [], "topics to serve (empty: every topic of the graph whose message type is installed)"),
     Param("exclude", ["/rosout", "/parameter_events"], "topics never served"),
+    Param("max_rate", 0.0, "most messages per second forwarded on each channel; faster topics are thinned "
+          "(0: every message, as published)", minimum=0.0, maximum=1000.0, unit="Hz"),
     Param("parameters", True, "serve the graph's node parameters (Foxglove's parameter panel reads and sets them)",
           dynamic=False),
     Param("discovery_period", 1.0, "how often the graph's topics are looked up", minimum=0.1, maximum=30.0,
