@@ -21,6 +21,7 @@ BENCHES: dict[str, str] = {
     "restart": "raspv_bringup.restart_bench",
     "budget": "raspv_spv.budget_bench",
     "soak": "raspv_bringup.soak_bench",
+    "foxglove": "raspv_viz.bench",
 }
 
 

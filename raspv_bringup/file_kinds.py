@@ -163,7 +163,7 @@ FILE_KINDS: dict[str, FileKind] = {
     "world": FileKind("world", "raspv_sim.world_check:check_world",
                       "simulator world: shipped name or YAML file, with every mesh/URDF/SDF it names"),
     "device": FileKind("device", _check_device, "prosthesis: preset name or device YAML file", with_params=True),
-    "map": FileKind("map", "raspv_nav.occupancy:load_map", "map_server YAML and the image it names"),
+    "map": FileKind("map", "raspv_common.occupancy:load_map", "map_server YAML and the image it names"),
     "bag": FileKind("bag", _check_bag, "ROS 2 bag: directory, .mcap or .db3 file"),
     "output_dir": FileKind("output_dir", _check_output_dir, "directory the node creates and writes into"),
     "pem": FileKind("pem", _check_pem, "PEM certificate or key"),

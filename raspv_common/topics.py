@@ -48,3 +48,10 @@ CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; s
 # Experiments (raspv_experiments).
 EXPERIMENT_INSTRUCTIONS = "/experiment/instructions"  # std_msgs/String JSON, latched: what the subject is told
 EXPERIMENT_RESPONSE = "/experiment/response"          # std_msgs/String JSON: the subject's start/abort
+
+# Live views (raspv_viz): markers of what perception found and the depth as a point cloud.
+VIZ_SCENE = "/viz/scene"                    # visualization_msgs/MarkerArray: planes with hulls, obstacles, free floor
+VIZ_STAIRS = "/viz/stairs"                  # visualization_msgs/MarkerArray: treads and the stair wireframe
+VIZ_PATH = "/viz/path"                      # visualization_msgs/MarkerArray: the planned path and its goal
+VIZ_PHOSPHENES = "/viz/phosphenes"          # visualization_msgs/MarkerArray: the phosphenes placed in front of the camera
+VIZ_CLOUD = "/viz/cloud"                    # sensor_msgs/PointCloud2: decimated depth (xyz + rgb)

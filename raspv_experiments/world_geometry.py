@@ -14,7 +14,7 @@ import numpy as np
 
 from raspv_nav.costmap import CostmapConfig
 from raspv_nav.global_planner import GlobalPlanner, NoPathError, path_length
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 MAP_RESOLUTION = 0.05      # m per cell
 BODY_RADIUS = 0.25         # m, the avatar's default collision radius (sim body_radius)

@@ -25,7 +25,7 @@ from raspv_nav.guidance import Guidance, nearest_obstacle_ahead
 from raspv_nav.local_planner import DWAConfig, DWAPlanner, DWAResult, grid_clearance, lookahead_point
 from raspv_nav.motion import MapAlignment
 from raspv_nav.obstacle_layer import DepthObservation, ObstacleLayerConfig
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 
 @dataclass

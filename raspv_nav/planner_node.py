@@ -47,7 +47,7 @@ from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_nav.assistant import NavigationAssistant, assistant_config
 from raspv_nav.motion import MapAlignment, VelocityEstimator, planar_pose
 from raspv_nav.nav_msg import costmap_to_msg, guidance_to_msg, path_to_msg
-from raspv_nav.occupancy import MapFormatError, load_map
+from raspv_common.occupancy import MapFormatError, load_map
 from raspv_nav.planner_params import PARAMS
 
 
