@@ -8,10 +8,10 @@ from raspv_bringup.ros2_launch import launch_description
 
 NODES = [
     {'package': 'raspv_camera', 'executable': 'camera', 'name': 'camera', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'driver': 'auto', 'fps': 30.0, 'height': 480, 'width': 640}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': False, 'parameters': [{'mounting': 'head'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_perception', 'executable': 'odometry', 'name': 'odometry', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': False, 'parameters': [{'device': 'optimist', 'mode': 'chess_floor'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'mounting': 'head'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'odometry', 'name': 'odometry', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'device': 'optimist', 'mode': 'chess_floor'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
 ]
 
 

@@ -7,11 +7,11 @@ Run (system ROS 2 Jazzy, after `colcon build` of this repository, see docs/DEVEL
 from raspv_bringup.ros2_launch import launch_description
 
 NODES = [
-    {'package': 'raspv_sim', 'executable': 'sim', 'name': 'sim', 'respawn': False, 'parameters': [{'log_dir': 'runs', 'margin_deg': 10.0, 'world': 'office'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_nav', 'executable': 'planner', 'name': 'planner', 'respawn': False, 'parameters': [{'goal_name': 'bin', 'obstacle_range': 6.0, 'world': 'office'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': False, 'parameters': [{'device': 'optimist', 'mode': 'wall_obstacles', 'overlays': ['path', 'guidance']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': False, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_sim', 'executable': 'sim', 'name': 'sim', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'log_dir': 'runs', 'margin_deg': 10.0, 'world': 'office'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_nav', 'executable': 'planner', 'name': 'planner', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'goal_name': 'bin', 'obstacle_range': 6.0, 'world': 'office'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'device': 'optimist', 'mode': 'wall_obstacles', 'overlays': ['path', 'guidance']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
 ]
 
 
