@@ -157,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
                                        timeout=180_000)
                 time.sleep(5.0)                                   # past the start: the graph settled
                 result = _measure(g, page, frames, status, minutes, rate)
+                result["png"] = _png_bytes(probe)
                 _report(result, failures)
                 if steps:
                     _onsets(g, page, workdir, steps, failures)
@@ -238,7 +239,10 @@ def _report(r: dict, failures: list[str]) -> None:
     print(f"  CPU (% of one core): {nodes}, chromium {r['chromium']:.0f} ({r['chromium_processes']} processes) — "
           f"{total_cpu:.0f} of {100 * (os.cpu_count() or 1)}; {r['machine']}; load average {r['load']:.1f}")
     per_frame = r["bytes"] / max(1, r["frames_client"])
-    print(f"  to the client: {per_frame / 1e3:.1f} kB per frame, {r['bytes'] / r['wall'] / 1e3:.0f} kB/s")
+    fps_client = r["frames_client"] / r["wall"]
+    png = (f"; the same frames as PNG images: {r['png'] / 1e3:.1f} kB per frame, "
+           f"{r['png'] * fps_client / 1e3:.0f} kB/s ({r['png'] / max(per_frame, 1):.0f}×)") if r.get("png") else ""
+    print(f"  to the client: {per_frame / 1e3:.1f} kB per frame, {r['bytes'] / r['wall'] / 1e3:.0f} kB/s{png}")
     if r["episodes"]:
         failures.append(f"{r['episodes']} stale episodes without a fault")
     if share < TARGETS["share"]:
@@ -247,6 +251,26 @@ def _report(r: dict, failures: list[str]) -> None:
         failures.append(f"client {fps_med:.1f} fps")
     if age95 > TARGETS["age_p95_ms"]:
         failures.append(f"frame age p95 {age95:.0f} ms")
+
+
+def _png_bytes(probe, count: int = 25) -> float | None:
+    """Mean size (bytes) of the spv node's images as the bridge encodes them for a PNG client,
+    sampled after the window (subscribing makes the spv node render images)."""
+    from sensor_msgs.msg import Image
+
+    from raspv_common import topics
+    from raspv_common.conversions import image_to_array
+    from raspv_hmd.frame_encoding import FORMAT_PNG, OutgoingFrame
+
+    images = probe.subscribe(topics.SPV_IMAGE, Image, wait_for_publishers=1)
+    try:
+        got = images.wait(count, timeout=30)
+    except TimeoutError:
+        return None
+    finally:
+        probe.unsubscribe(images)
+    sizes = [len(OutgoingFrame(0, image_to_array(m), 0.0).payload(FORMAT_PNG)[1]) for m in got[-count:]]
+    return float(np.mean(sizes))
 
 
 def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
