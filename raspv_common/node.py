@@ -8,6 +8,7 @@ turns configuration mistakes into one clear line, and shuts down cleanly on SIGI
 """
 from __future__ import annotations
 
+import faulthandler
 import sys
 import time
 from typing import Any, Callable, Sequence
@@ -170,6 +171,9 @@ class RaspvNode(Node):
         """Release resources (flush logs, close files); called once at shutdown."""
 
 
+STOP_HANG_S = 6.0     # s: a node's own shutdown (close, destroy, rclpy) longer than this is a hang
+
+
 def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None = None,
              threads: int = 1, priority: str = "normal") -> None:
     """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error,
@@ -206,6 +210,9 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
         if rclpy.ok():
             raise
     finally:
+        # a stop that hangs prints every thread's stack to the node's log and exits, before the
+        # launcher's SIGINT grace (8 s) runs out and SIGKILL leaves nothing to go on
+        faulthandler.dump_traceback_later(STOP_HANG_S, exit=True)
         if node is not None:
             code = code or node.exit_code
             try:
@@ -213,6 +220,7 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
             finally:
                 node.destroy_node()
         rclpy.try_shutdown()
+        faulthandler.cancel_dump_traceback_later()
     if code:
         sys.exit(code)
 

@@ -57,8 +57,8 @@ def write_frames(path, legacy: bool, spec):
     text = (raspv_msg_dir() / "PhospheneFrame.msg").read_text()
     msgtype = "raspv_msgs/msg/PhospheneFrame"
     serialise_as = msgtype
-    if legacy:        # the definition as it was: no configured_mode / configured_overlays
-        text = "\n".join(line for line in text.splitlines() if "configured_" not in line
+    if legacy:        # the definition as it was: no configured_mode / configured_overlays / sprite_levels
+        text = "\n".join(line for line in text.splitlines() if "configured_" not in line and "sprite_levels" not in line
                          and not line.lstrip().startswith("# (stale"))
         serialise_as = "test_legacy/msg/PhospheneFrame"
         if serialise_as not in store.fielddefs:
@@ -83,7 +83,8 @@ def write_frames(path, legacy: bool, spec):
                           mode=mode, overlays=list(overlays), levels=np.zeros(3, np.uint8),
                           brightness=np.zeros(3, np.float32), temporal=False)
             if not legacy:
-                fields.update(configured_mode=configured[0], configured_overlays=list(configured[1]))
+                fields.update(configured_mode=configured[0], configured_overlays=list(configured[1]),
+                              sprite_levels=np.zeros(0, np.uint8))
             w.write("/spv/frame", 1_000_000_000 + i * 20_000_000, store.serialize_cdr(cls(**fields), serialise_as))
 
 

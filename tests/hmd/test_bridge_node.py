@@ -219,8 +219,8 @@ def test_navigation_guidance_reaches_the_client_as_audio_cues(graph, probe):
     from raspv_nav.motion import planar_transform
 
     g, url, _ = start_bridge(graph)
-    odom_pub = probe.publisher(topics.ODOM, Odometry, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
     guide_pub = probe.publisher(topics.NAV_GUIDANCE, NavGuidance, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    odom_pub = probe.publisher(topics.ODOM, Odometry, qos=SENSOR_QOS)   # the bridge subscribes once guidance comes
 
     async def receive_cues():
         ws = await controller(url)
