@@ -1,0 +1,179 @@
+"""``raspv learn``: render the dataset, train an encoder end to end, compare it with the
+hand-designed modes through the computational observer (docs/learn.md).
+
+    raspv learn dataset optimist            # the data recipe of raspv_learn/configs/optimist.yaml
+    raspv learn train optimist              # → runs/learn/optimist/ (checkpoints, encoder.onnx)
+    raspv learn train optimist --resume     # continue a killed run
+    raspv learn compare optimist            # observer scores of every mode on the held-out world
+
+CONFIG is a YAML file or the name of a shipped one (``raspv_learn/configs/NAME.yaml``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+COMPARE_MODES = ("depth", "edges", "chess_floor", "wall_obstacles", "chess_wall_obstacles")
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="learn", metavar="COMMAND", required=True)
+    for name, text in (("dataset", "render the dataset of a configuration's data recipe from the shipped worlds"),
+                       ("train", "train the encoder end to end through the twin; export it to ONNX"),
+                       ("compare", "the computational observer: every hand-designed mode and the learned encoder "
+                                   "scored on the held-out worlds")):
+        p = sub.add_parser(name, help=text, description=text)
+        p.add_argument("config", help="training configuration: YAML file or shipped name (optimist, argus_iii)")
+        p.add_argument("--data", help="dataset folder (default data/learn/<recipe key>)")
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        if name in ("train", "compare"):
+            p.add_argument("--out", help="run folder (default runs/learn/<name>)")
+        if name == "train":
+            p.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
+            p.add_argument("--ship", action="store_true",
+                           help="copy the encoder, weights and scores into raspv_learn/models/ (what the learned "
+                                "mode loads by default)")
+        if name == "compare":
+            p.add_argument("--modes", nargs="+", default=list(COMPARE_MODES), help="hand-designed modes to score")
+            p.add_argument("--encoder", help="weights .pt of the learned encoder (default: --out's, else the "
+                                             "shipped one)")
+
+
+def _data_dir(args, config) -> Path:
+    return Path(args.data) if args.data else Path("data") / "learn" / config.data.key()
+
+
+def _out_dir(args, config) -> Path:
+    return Path(args.out) if args.out else Path("runs") / "learn" / config.name
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_learn.config import ConfigError, load_config
+    from raspv_learn.dataset import DataError
+
+    try:
+        config = load_config(args.config)
+        return {"dataset": _dataset, "train": _train, "compare": _compare}[args.learn](args, config)
+    except (ConfigError, DataError) as exc:
+        print(f"raspv learn: {exc}", file=sys.stderr)
+        return 2
+
+
+def _dataset(args, config) -> int:
+    from raspv_learn.dataset import render_dataset
+
+    t0 = time.perf_counter()
+    folder = render_dataset(config.data, _data_dir(args, config), progress=not args.quiet)
+    print(f"dataset {folder}: {sum(config.data.frames_of(w) for w in (*config.data.train_worlds, *config.data.test_worlds))}"
+          f" frames (train {', '.join(config.data.train_worlds)}; held out {', '.join(config.data.test_worlds)}), "
+          f"{time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def _twin(config):
+    from raspv_learn.twin import PhospheneTwin
+
+    return PhospheneTwin.from_config(config.spv_config())
+
+
+def _train(args, config) -> int:
+    import torch
+
+    from raspv_learn.export import export_encoder
+    from raspv_learn.prepare import prepare
+    from raspv_learn.train import TrainError, train_end_to_end
+
+    out = _out_dir(args, config)
+    t0 = time.perf_counter()
+    data = prepare(config, _data_dir(args, config), progress=not args.quiet)
+    prep_s = time.perf_counter() - t0
+    twin = _twin(config)
+    try:
+        model, result = train_end_to_end(config, data, twin, out, resume=args.resume, progress=not args.quiet)
+    except TrainError as exc:
+        print(f"raspv learn: {exc}", file=sys.stderr)
+        return 2
+    torch.save({"encoder": model.encoder.state_dict(), "decoder": model.decoder.state_dict(),
+                "config": config.as_dict(), "config_key": config.key()}, out / "weights.pt")
+    diff = export_encoder(model.encoder, config, twin.num_levels, out / "encoder.onnx", data.test.inputs[0])
+    summary = {"config": config.name, "config_key": config.key(), "recipe_key": config.data.key(),
+               "phosphenes": data.count, "best_epoch": result.best_epoch, "val": result.val, "test": result.test,
+               "train_minutes": result.seconds / 60.0, "prepare_minutes": prep_s / 60.0, "onnx_max_diff": diff,
+               "threads": config.train.threads}
+    (out / "result.json").write_text(json.dumps(summary, indent=1))
+    print(f"{config.name}: {data.count} phosphenes, best epoch {result.best_epoch}/{config.train.epochs}; "
+          f"held-out ({', '.join(config.data.test_worlds)}) obstacle IoU {result.test['iou_obstacle']:.3f}, "
+          f"mIoU {result.test['miou']:.3f}; training {result.seconds / 60:.1f} min on {config.train.threads} threads "
+          f"(+ {prep_s / 60:.1f} min preparing the data); {out / 'encoder.onnx'}")
+    if args.ship:
+        MODELS_DIR.mkdir(exist_ok=True)
+        stem = Path(config.device).stem
+        shutil.copyfile(out / "encoder.onnx", MODELS_DIR / f"{stem}.onnx")
+        shutil.copyfile(out / "weights.pt", MODELS_DIR / f"{stem}.pt")
+        (MODELS_DIR / f"{stem}.json").write_text(json.dumps(summary, indent=1))
+        print(f"shipped as {MODELS_DIR / stem}.onnx/.pt/.json")
+    return 0
+
+
+def _compare(args, config) -> int:
+    import numpy as np
+    import torch
+
+    from raspv_learn.metrics import stimulation_cost
+    from raspv_learn.prepare import prepare
+    from raspv_learn.train import Pipeline, encoder_levels, train_observer
+
+    out = _out_dir(args, config)
+    data = prepare(config, _data_dir(args, config), tuple(args.modes), progress=not args.quiet)
+    twin = _twin(config)
+    weights = Path(args.encoder) if args.encoder else out / "weights.pt"
+    if not weights.exists() and not args.encoder:
+        weights = MODELS_DIR / f"{Path(config.device).stem}.pt"
+    candidates = {m: {p: getattr(data, p).levels[m] for p in ("train", "val", "test")} for m in args.modes}
+    if weights.exists():
+        state = torch.load(weights, weights_only=False)
+        model = Pipeline(config, twin, data.grid, data.inside)
+        model.encoder.load_state_dict(state["encoder"])
+        candidates["learned"] = {p: encoder_levels(model, getattr(data, p)) for p in ("train", "val", "test")}
+    else:
+        print(f"no learned encoder at {weights}: scoring the hand-designed modes only", file=sys.stderr)
+    d = config.spv_config().device
+    rows = []
+    for name, levels in candidates.items():
+        r = train_observer(levels, data, twin, config.target.stride_px, config.decoder.features, config.observer,
+                           config.train.seed, config.train.threads, name, progress=not args.quiet)
+        cost = stimulation_cost(levels["test"], data.inside, d.num_levels, d.pulse_amplitude_ua, d.pulse_phase_ms)
+        rows.append({"mode": name, **r.test, **cost, "best_epoch": r.best_epoch, "minutes": r.seconds / 60.0})
+        print(f"  {name:22s} obstacle IoU {r.test['iou_obstacle']:.3f}  floor {r.test['iou_floor']:.3f}  "
+              f"wall {r.test['iou_wall']:.3f}  mIoU {r.test['miou']:.3f}  on {100 * cost['active_fraction']:.0f} %  "
+              f"({r.seconds / 60:.1f} min)", flush=True)
+    hand = [r for r in rows if r["mode"] != "learned"]
+    best = max(hand, key=lambda r: r["iou_obstacle"]) if hand else None
+    table = _markdown(config, data.count, rows, best)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "compare.json").write_text(json.dumps({"config": config.name, "phosphenes": data.count, "rows": rows},
+                                                 indent=1))
+    (out / "compare.md").write_text(table)
+    print(table)
+    learned = next((r for r in rows if r["mode"] == "learned"), None)
+    if learned and best:
+        gain = 100 * (learned["iou_obstacle"] - best["iou_obstacle"])
+        print(f"learned vs best hand-designed ({best['mode']}): {gain:+.1f} points obstacle IoU "
+              f"(target +10: {'met' if gain >= 10 else 'MISSED'})")
+    return 0 if np.isfinite([r["miou"] for r in rows]).all() else 1
+
+
+def _markdown(config, count: int, rows: list[dict], best: dict | None) -> str:
+    lines = [f"{config.device}, {count} phosphenes, held out: {', '.join(config.data.test_worlds)}", "",
+             "| representation | obstacle IoU | floor IoU | wall IoU | mIoU | phosphenes on | charge/frame |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        mark = " (best hand-designed)" if best is not None and r is best else ""
+        lines.append(f"| {r['mode']}{mark} | {r['iou_obstacle']:.3f} | {r['iou_floor']:.3f} | {r['iou_wall']:.3f} | "
+                     f"{r['miou']:.3f} | {100 * r['active_fraction']:.0f} % | {r['charge_nc']:.0f} nC |")
+    return "\n".join(lines) + "\n"
