@@ -20,6 +20,8 @@ BENCHES: dict[str, str] = {
     "restart": "raspv_bringup.restart_bench",
     "budget": "raspv_spv.budget_bench",
     "soak": "raspv_bringup.soak_bench",
+    "twin": "raspv_learn.bench_twin",
+    "learned": "raspv_learn.bench_learned",
 }
 
 

@@ -268,6 +268,8 @@ def read_recipe(folder: str | Path) -> DataRecipe:
     import yaml
 
     path = Path(folder) / "recipe.yaml"
+    if not path.exists():
+        raise DataError(f"{folder}: no dataset here; render it first: raspv learn dataset CONFIG")
     try:
         data = yaml.safe_load(path.read_text())
         return DataRecipe.from_mapping(data["recipe"], str(path))

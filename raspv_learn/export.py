@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -33,9 +34,11 @@ def export_encoder(encoder: Encoder, config: LearnConfig, num_levels: int, path:
     tmp = path.with_name(path.stem + ".tmp.onnx")
     encoder = encoder.eval()
     x = torch.from_numpy(np.asarray(example, np.float32))[None]
-    torch.onnx.export(encoder, (x,), str(tmp), dynamo=False, opset_version=17, input_names=["inputs"],
-                      output_names=["stimulation"],
-                      dynamic_axes={"inputs": {2: "height", 3: "width"}, "stimulation": {2: "height", 3: "width"}})
+    with warnings.catch_warnings():           # the TorchScript exporter (no onnxscript needed) says it is legacy
+        warnings.simplefilter("ignore", DeprecationWarning)
+        torch.onnx.export(encoder, (x,), str(tmp), dynamo=False, opset_version=17, input_names=["inputs"],
+                          output_names=["stimulation"],
+                          dynamic_axes={"inputs": {2: "height", 3: "width"}, "stimulation": {2: "height", 3: "width"}})
     model = onnx.load(str(tmp))
     meta = {"raspv_channels": json.dumps(list(config.encoder.channels)), "raspv_focal_px": repr(config.encoder.focal_px),
             "raspv_device": config.device, "raspv_num_levels": str(num_levels), "raspv_config_key": config.key()}

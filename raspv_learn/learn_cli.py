@@ -42,6 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             p.add_argument("--modes", nargs="+", default=list(COMPARE_MODES), help="hand-designed modes to score")
             p.add_argument("--encoder", help="weights .pt of the learned encoder (default: --out's, else the "
                                              "shipped one)")
+            p.add_argument("--no-learned", action="store_true", help="score the hand-designed modes only")
+            p.add_argument("--fresh", action="store_true",
+                           help="score every row again (default: rows of --out/compare.json with the same "
+                                "configuration, observer and encoder are kept: a killed comparison resumes)")
 
 
 def _data_dir(args, config) -> Path:
@@ -103,12 +107,14 @@ def _train(args, config) -> int:
     diff = export_encoder(model.encoder, config, twin.num_levels, out / "encoder.onnx", data.test.inputs[0])
     summary = {"config": config.name, "config_key": config.key(), "recipe_key": config.data.key(),
                "phosphenes": data.count, "best_epoch": result.best_epoch, "val": result.val, "test": result.test,
-               "train_minutes": result.seconds / 60.0, "prepare_minutes": prep_s / 60.0, "onnx_max_diff": diff,
+               "train_minutes": result.seconds / 60.0, "train_cpu_minutes": result.cpu_seconds / 60.0,
+               "prepare_minutes": prep_s / 60.0, "onnx_max_diff": diff,
                "threads": config.train.threads}
     (out / "result.json").write_text(json.dumps(summary, indent=1))
     print(f"{config.name}: {data.count} phosphenes, best epoch {result.best_epoch}/{config.train.epochs}; "
           f"held-out ({', '.join(config.data.test_worlds)}) obstacle IoU {result.test['iou_obstacle']:.3f}, "
-          f"mIoU {result.test['miou']:.3f}; training {result.seconds / 60:.1f} min on {config.train.threads} threads "
+          f"mIoU {result.test['miou']:.3f}; training {result.seconds / 60:.1f} min wall, "
+          f"{result.cpu_seconds / 60:.1f} min CPU on {config.train.threads} thread(s) "
           f"(+ {prep_s / 60:.1f} min preparing the data); {out / 'encoder.onnx'}")
     if args.ship:
         MODELS_DIR.mkdir(exist_ok=True)
@@ -121,6 +127,8 @@ def _train(args, config) -> int:
 
 
 def _compare(args, config) -> int:
+    import hashlib
+
     import numpy as np
     import torch
 
@@ -129,35 +137,51 @@ def _compare(args, config) -> int:
     from raspv_learn.train import Pipeline, encoder_levels, train_observer
 
     out = _out_dir(args, config)
+    out.mkdir(parents=True, exist_ok=True)
     data = prepare(config, _data_dir(args, config), tuple(args.modes), progress=not args.quiet)
     twin = _twin(config)
     weights = Path(args.encoder) if args.encoder else out / "weights.pt"
     if not weights.exists() and not args.encoder:
         weights = MODELS_DIR / f"{Path(config.device).stem}.pt"
     candidates = {m: {p: getattr(data, p).levels[m] for p in ("train", "val", "test")} for m in args.modes}
-    if weights.exists():
+    keys = {m: m for m in args.modes}
+    if args.no_learned:
+        pass
+    elif weights.exists():
         state = torch.load(weights, weights_only=False)
         model = Pipeline(config, twin, data.grid, data.inside)
         model.encoder.load_state_dict(state["encoder"])
         candidates["learned"] = {p: encoder_levels(model, getattr(data, p)) for p in ("train", "val", "test")}
+        keys["learned"] = "learned:" + hashlib.sha256(weights.read_bytes()).hexdigest()[:16]
     else:
         print(f"no learned encoder at {weights}: scoring the hand-designed modes only", file=sys.stderr)
+    run_key = f"{config.key()}/{json.dumps(config.as_dict()['observer'], sort_keys=True)}"
+    record = out / "compare.json"
+    kept = {}
+    if record.exists() and not args.fresh:
+        previous = json.loads(record.read_text())
+        kept = {r["row_key"]: r for r in previous.get("rows", []) if previous.get("run_key") == run_key}
     d = config.spv_config().device
     rows = []
     for name, levels in candidates.items():
-        r = train_observer(levels, data, twin, config.target.stride_px, config.decoder.features, config.observer,
-                           config.train.seed, config.train.threads, name, progress=not args.quiet)
-        cost = stimulation_cost(levels["test"], data.inside, d.num_levels, d.pulse_amplitude_ua, d.pulse_phase_ms)
-        rows.append({"mode": name, **r.test, **cost, "best_epoch": r.best_epoch, "minutes": r.seconds / 60.0})
-        print(f"  {name:22s} obstacle IoU {r.test['iou_obstacle']:.3f}  floor {r.test['iou_floor']:.3f}  "
-              f"wall {r.test['iou_wall']:.3f}  mIoU {r.test['miou']:.3f}  on {100 * cost['active_fraction']:.0f} %  "
-              f"({r.seconds / 60:.1f} min)", flush=True)
+        row = kept.get(keys[name])
+        if row is None:
+            r = train_observer(levels, data, twin, config.target.stride_px, config.decoder.features, config.observer,
+                               config.train.seed, config.train.threads, name, progress=not args.quiet)
+            cost = stimulation_cost(levels["test"], data.inside, d.num_levels, d.pulse_amplitude_ua,
+                                    d.pulse_phase_ms)
+            row = {"mode": name, "row_key": keys[name], **r.test, **cost, "best_epoch": r.best_epoch,
+                   "minutes": r.seconds / 60.0, "cpu_minutes": r.cpu_seconds / 60.0}
+        rows.append(row)
+        merged = {**kept, **{x["row_key"]: x for x in rows}}
+        record.write_text(json.dumps({"config": config.name, "run_key": run_key, "phosphenes": data.count,
+                                      "rows": list(merged.values())}, indent=1))
+        print(f"  {name:22s} obstacle IoU {row['iou_obstacle']:.3f}  floor {row['iou_floor']:.3f}  "
+              f"wall {row['iou_wall']:.3f}  mIoU {row['miou']:.3f}  on {100 * row['active_fraction']:.0f} %  "
+              f"({row['minutes']:.1f} min)", flush=True)
     hand = [r for r in rows if r["mode"] != "learned"]
     best = max(hand, key=lambda r: r["iou_obstacle"]) if hand else None
     table = _markdown(config, data.count, rows, best)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "compare.json").write_text(json.dumps({"config": config.name, "phosphenes": data.count, "rows": rows},
-                                                 indent=1))
     (out / "compare.md").write_text(table)
     print(table)
     learned = next((r for r in rows if r["mode"] == "learned"), None)

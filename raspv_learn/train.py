@@ -104,7 +104,8 @@ class RunResult:
     best_epoch: int
     val: dict
     test: dict
-    seconds: float
+    seconds: float                  # wall time of the epochs
+    cpu_seconds: float = 0.0        # CPU time of the epochs (threads summed): the wall time on idle cores
 
 
 def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, out_dir: str | Path,
@@ -118,11 +119,12 @@ def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, o
     set_threads(t.threads)
     torch.manual_seed(t.seed)
     model = Pipeline(config, twin, data.grid, data.inside)
-    params = list(model.encoder.parameters()) + list(model.decoder.parameters())
-    opt = torch.optim.Adam(params, lr=t.lr, weight_decay=t.weight_decay)
+    opt = torch.optim.Adam([{"params": model.encoder.parameters(), "lr": t.encoder_lr},
+                            {"params": model.decoder.parameters(), "lr": t.lr}], weight_decay=t.weight_decay)
     batches_per_epoch = math.ceil(len(data.train) / t.batch_size)
+    warmup_steps = max(1.0, t.charge_warmup * t.epochs * batches_per_epoch)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, t.epochs * batches_per_epoch)
-    start, history, best, elapsed = 0, [], {"score": -1.0, "epoch": -1}, 0.0
+    start, history, best, elapsed, cpu = 0, [], {"score": -1.0, "epoch": -1}, 0.0, 0.0
     if ckpt.exists():
         if not resume:
             raise TrainError(f"{out}: holds a run already; continue it with --resume, or choose another --out")
@@ -134,6 +136,7 @@ def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, o
         opt.load_state_dict(state["optimizer"])
         sched.load_state_dict(state["scheduler"])
         start, history, best, elapsed = state["epoch"], state["history"], state["best"], state["elapsed_s"]
+        cpu = state.get("cpu_s", 0.0)
     weights = class_weights(data.train.targets)
     inputs = torch.from_numpy(data.train.inputs)
     inside = model.inside.bool()
@@ -141,14 +144,15 @@ def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, o
                desc=f"training {config.name}", disable=not progress, dynamic_ncols=True)
     try:
         for epoch in range(start, t.epochs):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             model.train()
             totals = np.zeros(3)
-            for idx in _batches(len(data.train), t.batch_size, t.seed, epoch):
+            for b, idx in enumerate(_batches(len(data.train), t.batch_size, t.seed, epoch)):
                 logits, lv = model(inputs[idx].float())
                 ce = F.cross_entropy(logits, _targets(data.train, idx), weight=weights, ignore_index=-1)
                 charge = (lv[:, inside] / (model.num_levels - 1)).mean()
-                loss = ce + t.charge_weight * charge
+                ramp = min(1.0, (epoch * batches_per_epoch + b) / warmup_steps)
+                loss = ce + ramp * t.charge_weight * charge
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
@@ -160,14 +164,16 @@ def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, o
             model.eval()
             val = _evaluate(lambda i: model(torch.from_numpy(data.val.inputs[i]).float())[0], data.val, 64)
             elapsed += time.perf_counter() - t0
+            cpu += time.process_time() - c0
             history.append({"epoch": epoch + 1, "ce": totals[0] / totals[2], "stimulation": totals[1] / totals[2],
-                            **{f"val_{k}": v for k, v in val.items()}, "elapsed_s": elapsed})
+                            **{f"val_{k}": v for k, v in val.items()}, "elapsed_s": elapsed, "cpu_s": cpu})
             if val["miou"] > best["score"]:
                 best = {"score": val["miou"], "epoch": epoch + 1, "encoder": copy.deepcopy(model.encoder.state_dict()),
                         "decoder": copy.deepcopy(model.decoder.state_dict())}
             _save(ckpt, {"config_key": config.key(), "epoch": epoch + 1, "encoder": model.encoder.state_dict(),
                          "decoder": model.decoder.state_dict(), "optimizer": opt.state_dict(),
-                         "scheduler": sched.state_dict(), "history": history, "best": best, "elapsed_s": elapsed})
+                         "scheduler": sched.state_dict(), "history": history, "best": best, "elapsed_s": elapsed,
+                         "cpu_s": cpu})
             with open(out / "log.jsonl", "a") as f:
                 f.write(json.dumps(history[-1]) + "\n")
     finally:
@@ -177,7 +183,7 @@ def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, o
     model.eval()
     test = _evaluate(lambda i: model(torch.from_numpy(data.test.inputs[i]).float())[0], data.test, 64)
     val = {k[4:]: v for k, v in history[best["epoch"] - 1].items() if k.startswith("val_")}
-    return model, RunResult(best["epoch"], val, test, elapsed)
+    return model, RunResult(best["epoch"], val, test, elapsed, cpu)
 
 
 def encoder_levels(model: Pipeline, split: Split, batch: int = 64) -> np.ndarray:
@@ -206,11 +212,11 @@ def train_observer(levels: dict[str, np.ndarray], data: Prepared, twin: Phosphen
         with torch.no_grad():
             return twin.render_levels(levels[part][idx]).unsqueeze(1)
 
-    best, history, elapsed = {"score": -1.0, "epoch": -1}, [], 0.0
+    best, history, elapsed, cpu = {"score": -1.0, "epoch": -1}, [], 0.0, 0.0
     with tqdm(total=spec.epochs * per_epoch, unit="batch", desc=f"observer {name}", disable=not progress,
               dynamic_ncols=True) as bar:
         for epoch in range(spec.epochs):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             decoder.train()
             for idx in _batches(len(data.train), spec.batch_size, seed, epoch):
                 loss = F.cross_entropy(decoder(images("train", idx)), _targets(data.train, idx), weight=weights,
@@ -224,10 +230,11 @@ def train_observer(levels: dict[str, np.ndarray], data: Prepared, twin: Phosphen
             decoder.eval()
             val = _evaluate(lambda i: decoder(images("val", i)), data.val, 64)
             elapsed += time.perf_counter() - t0
+            cpu += time.process_time() - c0
             history.append(val)
             if val["miou"] > best["score"]:
                 best = {"score": val["miou"], "epoch": epoch + 1, "state": copy.deepcopy(decoder.state_dict())}
     decoder.load_state_dict(best["state"])
     decoder.eval()
     test = _evaluate(lambda i: decoder(images("test", i)), data.test, 64)
-    return RunResult(best["epoch"], history[best["epoch"] - 1], test, elapsed)
+    return RunResult(best["epoch"], history[best["epoch"] - 1], test, elapsed, cpu)
