@@ -60,6 +60,9 @@ class DecoderSpec:
 @dataclass(frozen=True)
 class TrainSpec:
     """``lr``: the decoder's learning rate, ``encoder_lr`` the encoder's (Adam, cosine decay);
+    ``code_weight``: weight of the starting curriculum — the stimulation pulled towards the
+    walker-class code of each phosphene's ray (floor off, walls half, obstacles full) —
+    annealed linearly to 0 over the first ``code_warmup`` of the steps;
     ``charge_weight``: λ of the charge penalty λ·mean(level/(N_L−1)) (the charge a frame
     delivers is proportional to the summed levels), ramped up from 0 over the first
     ``charge_warmup`` of the steps (a penalty at full weight from the start switches every
@@ -71,6 +74,8 @@ class TrainSpec:
     lr: float = 0.002
     encoder_lr: float = 0.001
     weight_decay: float = 1e-4
+    code_weight: float = 1.0
+    code_warmup: float = 0.3
     charge_weight: float = 0.05
     charge_warmup: float = 0.3
     val_fraction: float = 0.1
@@ -184,9 +189,10 @@ def _check(c: LearnConfig) -> None:
         problems.append("encoder.focal_px must be > 0 and the features >= 4")
     t = c.train
     if (t.epochs < 1 or t.batch_size < 1 or t.lr <= 0 or t.encoder_lr <= 0 or t.charge_weight < 0
-            or not 0 <= t.charge_warmup <= 1 or not 0 < t.val_fraction < 0.5):
-        problems.append("train: epochs and batch_size >= 1, lr and encoder_lr > 0, charge_weight >= 0, "
-                        "charge_warmup in [0, 1], val_fraction in (0, 0.5)")
+            or not 0 <= t.charge_warmup <= 1 or t.code_weight < 0 or not 0 < t.code_warmup <= 1
+            or not 0 < t.val_fraction < 0.5):
+        problems.append("train: epochs and batch_size >= 1, lr and encoder_lr > 0, charge_weight and code_weight "
+                        ">= 0, charge_warmup in [0, 1], code_warmup in (0, 1], val_fraction in (0, 0.5)")
     if c.observer.epochs < 1 or c.observer.batch_size < 1 or c.observer.lr <= 0:
         problems.append("observer: epochs and batch_size >= 1, lr > 0")
     if problems:

@@ -17,11 +17,15 @@ import numpy as np
 from tqdm import tqdm
 
 from raspv_learn.config import LearnConfig
-from raspv_learn.dataset import NONE, WorldFrames, load_world, read_recipe
+from raspv_learn.dataset import FLOOR, NONE, OBSTACLE, WALL, WorldFrames, load_world, read_recipe
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.modes.learned import encoder_inputs, input_size
 from raspv_spv.sampling import Sampling
 from raspv_spv.simulator import PhospheneSimulator
+
+
+# the stimulation a phosphene starts from in training: floor off, walls half, obstacles full
+CLASS_CODE = {FLOOR: 0.0, WALL: 0.5, OBSTACLE: 1.0}
 
 
 @dataclass
@@ -30,6 +34,7 @@ class Split:
 
     inputs: np.ndarray                 # (n, C, h, w) float16 encoder inputs
     targets: np.ndarray                # (n, th, tw) uint8: walker class 1..3, 0 not scored
+    codes: np.ndarray                  # (n, N) float16: CLASS_CODE of each phosphene's ray, NaN not scored
     levels: dict[str, np.ndarray] = field(default_factory=dict)   # mode → (n, N) uint8
 
     def __len__(self) -> int:
@@ -64,6 +69,17 @@ def target_map(gt: np.ndarray, depth: np.ndarray, sim: PhospheneSimulator, camer
     return np.where(scored, gt[rows, cols], NONE).astype(np.uint8)
 
 
+def phosphene_codes(gt: np.ndarray, depth: np.ndarray, sampling: Sampling, range_m: float) -> np.ndarray:
+    """(N,) float16 :data:`CLASS_CODE` of the walker class at each phosphene's camera pixel; NaN
+    outside the camera, without depth or beyond ``range_m``."""
+    code = np.full(256, np.nan, np.float32)
+    for cls, value in CLASS_CODE.items():
+        code[cls] = value
+    d = depth[sampling.rows, sampling.cols]
+    scored = sampling.inside & np.isfinite(d) & (d <= range_m)
+    return np.where(scored, code[gt[sampling.rows, sampling.cols]], np.nan).astype(np.float16)
+
+
 def phosphene_grid(sim: PhospheneSimulator, camera) -> tuple[np.ndarray, np.ndarray]:
     """((N, 2) normalised grid_sample coordinates of the phosphenes' camera pixels, (N,) inside)."""
     s = Sampling.build(sim.map, camera)
@@ -77,6 +93,8 @@ def _world_part(config: LearnConfig, frames: WorldFrames, camera, sim: Phosphene
     n = len(frames)
     a = frames.arrays
     inputs = np.empty((n, len(config.encoder.channels), size[1], size[0]), np.float16)
+    sampling = Sampling.build(sim.map, camera)
+    codes = np.empty((n, sim.count), np.float16)
     targets = []
     mode_sims = {m: sim.variant(m, ()) for m in modes}         # fresh mode state (Chess-Floor's axes) per world
     levels = {m: np.empty((n, sim.count), np.uint8) for m in modes}
@@ -84,6 +102,7 @@ def _world_part(config: LearnConfig, frames: WorldFrames, camera, sim: Phosphene
         depth = frames.depth(i)
         inputs[i] = encoder_inputs(a["rgb"][i], depth, a["scene_labels"][i], size, config.encoder.channels)
         targets.append(target_map(a["gt"][i], depth, sim, camera, config.target.stride_px, config.target.range_m))
+        codes[i] = phosphene_codes(a["gt"][i], depth, sampling, config.target.range_m)
         if modes:
             frame = FrameInputs(color=a["rgb"][i], depth=depth, camera=camera,
                                 camera_pose=a["world_from_camera"][i].astype(np.float64), scene=frames.scene(i),
@@ -91,16 +110,17 @@ def _world_part(config: LearnConfig, frames: WorldFrames, camera, sim: Phosphene
             for m, ms in mode_sims.items():
                 levels[m][i] = ms.levels(frame)
         bar.update(1)
-    return Split(inputs, np.stack(targets), levels)
+    return Split(inputs, np.stack(targets), codes, levels)
 
 
 def _concat(parts: list[Split]) -> Split:
     return Split(np.concatenate([p.inputs for p in parts]), np.concatenate([p.targets for p in parts]),
+                 np.concatenate([p.codes for p in parts]),
                  {m: np.concatenate([p.levels[m] for p in parts]) for m in parts[0].levels})
 
 
 def _take(split: Split, idx: np.ndarray) -> Split:
-    return Split(split.inputs[idx], split.targets[idx], {m: v[idx] for m, v in split.levels.items()})
+    return Split(split.inputs[idx], split.targets[idx], split.codes[idx], {m: v[idx] for m, v in split.levels.items()})
 
 
 def prepare(config: LearnConfig, data_dir, modes: tuple[str, ...] = (), progress: bool = True) -> Prepared:
