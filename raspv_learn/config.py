@@ -11,7 +11,7 @@ file that produced them::
     encoder: {focal_px: 64.0, channels: [grey, nearness, ...], features: 16}
     decoder: {features: 16}
     train: {epochs: 10, batch_size: 32, lr: 0.002, encoder_lr: 0.001, charge_weight: 0.05, seed: 0, threads: 1}
-    observer: {epochs: 6}
+    observer: {epochs: 20}
 
 Unknown keys are errors (one line naming the file and the key).
 """
@@ -88,7 +88,7 @@ class ObserverSpec:
     """The computational observer: the decoder architecture trained alone on each mode's
     phosphene images (same epochs, batch and learning rate for every mode)."""
 
-    epochs: int = 6
+    epochs: int = 20
     batch_size: int = 32
     lr: float = 0.002
 
