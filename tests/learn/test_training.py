@@ -16,12 +16,10 @@ from raspv_learn.dataset import DataError, load_world, read_recipe, render_datas
 from raspv_learn.prepare import prepare
 from raspv_learn.twin import PhospheneTwin
 
-pytestmark = pytest.mark.slow            # renders two worlds (~10 s each under load) and trains
-
 TINY = {"name": "tiny", "device": "argus_iii",
         "data": {"train_worlds": ["stairs"], "test_worlds": ["apartment"], "frames_per_world": 6,
                  "test_frames_per_world": 2, "shard_frames": 3, "width": 160, "height": 120},
-        "spv": {"width": 80}, "encoder": {"features": 4}, "decoder": {"features": 4},
+        "spv": {"width": 80}, "encoder": {"features": 4, "focal_px": 32.0}, "decoder": {"features": 4},
         "train": {"epochs": 2, "batch_size": 2, "val_fraction": 0.2}, "observer": {"epochs": 1, "batch_size": 2}}
 
 
@@ -43,8 +41,8 @@ def test_dataset_from_the_shipped_worlds(tiny):
     assert len(frames) == 6 and a["rgb"].shape == (6, 120, 160, 3) and a["depth_mm"].dtype == np.uint16
     assert set(np.unique(a["gt"])) <= {0, 1, 2, 3} and (a["gt"] == 1).any() and (a["gt"] == 2).any()
     assert (a["scene_labels"] > 0).any() and a["world_from_camera"].shape == (6, 4, 4)
-    # the camera stands at eye height, looking into at least 1 m of free floor
-    assert np.allclose(a["world_from_camera"][:, 2, 3], 1.6, atol=0.05)
+    # the eye at 1.6 m, lower as the head pitches down about the neck (0–45°)
+    assert np.all((a["world_from_camera"][:, 2, 3] > 1.45) & (a["world_from_camera"][:, 2, 3] < 1.61))
     # a killed run resumes: a missing shard is rendered again, the same frames from its seed
     shard = shard_path(data, "stairs", 1)
     before = dict(np.load(shard))
@@ -62,7 +60,7 @@ def test_training_resumes_after_a_kill_with_the_same_weights(tiny, tmp_path, mon
     config, _, data_dir = tiny
     data = prepare(config, data_dir, progress=False)
     assert len(data.train) + len(data.val) == 6 and len(data.test) == 2
-    assert data.train.inputs.shape[1:] == (9, 28, 37)          # 160 px camera at f 138.6 → 64 px grid
+    assert data.train.inputs.shape[1:] == (9, 28, 37)          # the 60° camera on a grid of focal length 32 px
     twin = PhospheneTwin.from_config(config.spv_config())
     whole, result = train_module.train_end_to_end(config, data, twin, tmp_path / "a", progress=False)
     assert 1 <= result.best_epoch <= 2 and set(result.test) >= {"iou_obstacle", "miou"}
@@ -83,7 +81,8 @@ def test_training_resumes_after_a_kill_with_the_same_weights(tiny, tmp_path, mon
     with pytest.raises(train_module.TrainError, match="--resume"):
         train_module.train_end_to_end(config, data, twin, tmp_path / "b", progress=False)
     resumed, again = train_module.train_end_to_end(config, data, twin, tmp_path / "b", resume=True, progress=False)
-    assert len(calls) == 1 and again.best_epoch == result.best_epoch and again.test == result.test
+    assert len(calls) == 1 and again.best_epoch == result.best_epoch
+    assert json.dumps(again.test, sort_keys=True) == json.dumps(result.test, sort_keys=True)   # NaN-safe
     for a, b in zip(whole.state_dict().values(), resumed.state_dict().values()):
         torch.testing.assert_close(a, b, rtol=0, atol=0)
 
