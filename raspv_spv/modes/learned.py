@@ -59,50 +59,43 @@ def input_size(camera, focal_px: float) -> tuple[int, int]:
 
 
 def _area(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """``image`` (H, W[, ≤4]) resampled to ``size`` = (w, h): an area average by the largest
-    whole factor q (OpenCV's fast path), then bilinear to the exact size (both centre-aligned,
-    so grid cell j still sits at camera pixel (j + ½)·W/w − ½)."""
+    """``image`` (H, W) resampled to ``size`` = (w, h): an area average by the largest whole
+    factor q (OpenCV's fast path), then bilinear to the exact size (both centre-aligned, so
+    grid cell j still sits at camera pixel (j + ½)·W/w − ½)."""
     h0, w0 = image.shape[:2]
     w, h = size
     q = max(1, min(w0 // w, h0 // h))
     if q > 1:
         image = cv2.resize(image, (-(-w0 // q), -(-h0 // q)), interpolation=cv2.INTER_AREA)
-    return cv2.resize(image, (w, h), interpolation=cv2.INTER_LINEAR).reshape(h, w, -1)
+    return cv2.resize(image, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
 def encoder_inputs(color: np.ndarray | None, depth: np.ndarray | None, labels: np.ndarray | None, size: tuple[int, int],
                    channels=CHANNELS) -> np.ndarray:
     """(C, h, w) float32 encoder input of one registered RGB-D frame (any resolutions of one
-    camera) resampled to ``size`` = (w, h) (:func:`_area`); channels in the order of ``channels``."""
-    planes: dict[str, np.ndarray] = {}
+    camera) resampled to ``size`` = (w, h) (:func:`_area`, plane by plane: single-channel
+    resampling is OpenCV's fastest); channels in the order of ``channels``."""
+    out = np.empty((len(channels), size[1], size[0]), np.float32)
     d = ok = None
-    for name in channels:
+    for i, name in enumerate(channels):
         if name == "grey":
-            planes[name] = cv2.cvtColor(np.ascontiguousarray(color), cv2.COLOR_RGB2GRAY).astype(np.float32)
-            planes[name] *= np.float32(1.0 / 255.0)
+            plane = cv2.cvtColor(np.ascontiguousarray(color), cv2.COLOR_RGB2GRAY).astype(np.float32)
+            plane *= np.float32(1.0 / 255.0)
         elif name in ("nearness", "depth_valid"):
             if ok is None:
                 d = np.asarray(depth, dtype=np.float32)
                 with np.errstate(invalid="ignore"):
                     ok = (d > 0) & np.isfinite(d)             # NaN compares False
             if name == "depth_valid":
-                planes[name] = ok.astype(np.float32)
+                plane = ok.astype(np.float32)
             else:
                 with np.errstate(divide="ignore"):
-                    planes[name] = np.minimum(np.float32(1.0), np.float32(NEAR_M) / np.where(ok, d, np.float32(np.inf)))
+                    plane = np.minimum(np.float32(1.0), np.float32(NEAR_M) / np.where(ok, d, np.float32(np.inf)))
         elif name in CLASS_CHANNELS:
-            planes[name] = (np.asarray(labels) == CLASS_CHANNELS[name]).astype(np.float32)
+            plane = (np.asarray(labels) == CLASS_CHANNELS[name]).astype(np.float32)
         else:
             raise ModelError(f"unknown encoder input channel {name!r}; known: {', '.join(CHANNELS)}")
-    out = np.empty((len(channels), size[1], size[0]), np.float32)
-    groups: dict[tuple, list[int]] = {}
-    for i, name in enumerate(channels):                    # planes of one size, resampled 4 at a time
-        groups.setdefault(planes[name].shape, []).append(i)
-    for idx in groups.values():
-        for k in range(0, len(idx), 4):
-            part = idx[k:k + 4]
-            stack = planes[channels[part[0]]] if len(part) == 1 else np.dstack([planes[channels[i]] for i in part])
-            out[part] = np.moveaxis(_area(stack, size), -1, 0)
+        out[i] = _area(plane, size)
     return out
 
 
