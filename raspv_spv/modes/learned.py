@@ -124,21 +124,16 @@ class EncoderModel:
     ``raspv_device`` and ``raspv_num_levels`` (what it was trained for)."""
 
     def __init__(self, path: str | Path, threads: int = 1) -> None:
-        import onnxruntime as ort
+        from raspv_perception.model_spec import ModelError as SessionError
+        from raspv_perception.segmentation_models import onnx_session
 
         self.path = Path(path)
         if not self.path.is_file():
             raise ModelError(f"{self.path}: no such learned-encoder file (raspv learn train writes one; see docs/learn.md)")
-        options = ort.SessionOptions()
-        options.intra_op_num_threads = max(1, int(threads))
-        options.inter_op_num_threads = 1
-        options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-        options.log_severity_level = 3
         try:
-            self.session = ort.InferenceSession(str(self.path), options, providers=["CPUExecutionProvider"])
-        except Exception as exc:  # onnxruntime raises its own exception types for bad files
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise ModelError(f"{self.path}: not a model onnxruntime can load ({first[:200]})") from None
+            self.session = onnx_session(self.path, threads)
+        except SessionError as exc:
+            raise ModelError(str(exc)) from None
         meta = self.session.get_modelmeta().custom_metadata_map
         try:
             self.channels = tuple(json.loads(meta["raspv_channels"]))
