@@ -16,6 +16,8 @@ import os
 import statistics
 import time
 
+PEER_MAX_GB = 1.0       # dynaphos holds N dense H×W maps (float32) and temporaries of their size
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--batch", type=int, default=32, help="frames per batch of the twin (default 32)")
@@ -25,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--threads", type=int, default=1, help="torch threads for both (default 1)")
     parser.add_argument("--quick", action="store_true", help="tiny settings (the test suite runs this)")
     parser.add_argument("--no-peers", action="store_true", help="skip dynaphos")
+    parser.add_argument("--peer-max-gb", type=float, default=PEER_MAX_GB,
+                        help=f"skip dynaphos where its N dense maps exceed this (default {PEER_MAX_GB:g} GB)")
 
 
 def _median_s(fn, repeats: int) -> float:
@@ -94,6 +98,11 @@ def part_dynaphos(args, ours: dict[str, float]) -> None:
     for name, kw in _settings(args):
         m = PhospheneMap.build(spv_config("default", **kw).map_spec())
         size = m.width
+        gb = m.count * size * size * 4 / 1e9
+        if gb > args.peer_max_gb:
+            print(f"  {name}: skipped: dynaphos would hold {m.count} dense {size}x{size} maps ({gb:.1f} GB, "
+                  f"more than --peer-max-gb {args.peer_max_gb:g}) on this shared machine")
+            continue
         x = np.degrees(np.arctan((m.centres[:, 0] - size / 2) / m.focal_px))
         y = -np.degrees(np.arctan((m.centres[:, 1] - size / 2) / m.focal_px))
         params = {k: dict(v) for k, v in DYNAPHOS_PARAMS.items()}
