@@ -20,6 +20,7 @@ from typing import BinaryIO, Callable, Iterator
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_DATA_END = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F
+BINARY_SCHEMA_ENCODINGS = frozenset({"protobuf", "flatbuffer"})
 _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")
@@ -36,7 +37,7 @@ class SalvagedSchema:
     id: int
     name: str          # message type, e.g. sensor_msgs/msg/Image
     encoding: str      # ros2msg | ros2idl
-    data: str          # the message definition text
+    data: str          # the message definition text ("" for binary schema encodings)
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,9 @@ def _parse_schema(body: memoryview) -> SalvagedSchema:
     name, pos = _string(body, 2)
     encoding, pos = _string(body, pos)
     (n,) = _U32.unpack_from(body, pos)
-    data = bytes(body[pos + 4:pos + 4 + n]).decode("utf-8")
+    raw = bytes(body[pos + 4:pos + 4 + n])
+    # a binary schema (a protobuf descriptor set, as DepthAI writes) is no text definition
+    data = "" if encoding in BINARY_SCHEMA_ENCODINGS else raw.decode("utf-8")
     return SalvagedSchema(sid, name, encoding, data)
 
 

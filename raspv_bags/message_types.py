@@ -6,6 +6,7 @@ bag brings along (their definitions are stored in the bag).
 """
 from __future__ import annotations
 
+import os
 import sys
 from functools import lru_cache
 from pathlib import Path
@@ -18,12 +19,20 @@ REPO_MSG_DIR = Path(__file__).resolve().parents[1] / "raspv_msgs" / "msg"
 INSTALLED_MSG_DIR = Path(sys.prefix) / "share" / "raspv_msgs" / "msg"
 
 
+def share_dirs() -> list[Path]:
+    """Where installed ROS packages keep ``<pkg>/msg/*.msg``: this interpreter's prefix, then every
+    prefix of ``AMENT_PREFIX_PATH`` (a colcon install, a system ROS 2 in /opt/ros)."""
+    prefixes = [sys.prefix, *(p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p)]
+    return [Path(p) / "share" for p in dict.fromkeys(prefixes)]
+
+
 def raspv_msg_dir() -> Path:
-    """Where the ``raspv_msgs`` ``.msg`` files are: the source tree, else the installed share."""
-    for d in (REPO_MSG_DIR, INSTALLED_MSG_DIR):
+    """Where the ``raspv_msgs`` ``.msg`` files are: the source tree, else an installed share."""
+    for d in (REPO_MSG_DIR, INSTALLED_MSG_DIR, *(share / "raspv_msgs" / "msg" for share in share_dirs())):
         if d.is_dir() and any(d.glob("*.msg")):
             return d
-    raise FileNotFoundError(f"raspv_msgs .msg files not found in {REPO_MSG_DIR} or {INSTALLED_MSG_DIR}")
+    raise FileNotFoundError(f"raspv_msgs .msg files not found in {REPO_MSG_DIR} or an installed share "
+                            f"({', '.join(str(s) for s in share_dirs())})")
 
 
 @lru_cache(maxsize=1)
@@ -63,8 +72,8 @@ def ensure_type(msgtype: str, _seen: set[str] | None = None) -> bool:
         return False
     seen.add(name)
     pkg, _, short = name.partition("/msg/")
-    path = Path(sys.prefix) / "share" / pkg / "msg" / f"{short}.msg"
-    if not path.is_file():
+    path = next((p for p in (share / pkg / "msg" / f"{short}.msg" for share in share_dirs()) if p.is_file()), None)
+    if path is None:
         return False
     text = path.read_text()
     for dep in _dependencies(text, pkg):

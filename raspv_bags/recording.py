@@ -14,9 +14,10 @@ import fnmatch
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Sequence
 
-from raspv_bags.writer import BagWriter, QosSpec
+if TYPE_CHECKING:
+    from raspv_bags.writer import QosSpec
 
 # Infrastructure topics left out of "record everything" (name them to record them).
 DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")
@@ -47,6 +48,8 @@ class Recording:
     """A bag being recorded from the graph."""
 
     def __init__(self, path: str | Path, storage: str = "mcap", flush_interval_s: float = 0.5) -> None:
+        from raspv_bags.writer import BagWriter      # rosbags: imported only when a bag is written
+
         self.writer = BagWriter(path, storage, flush_interval_s=flush_interval_s)
         self.path = self.writer.path
         self.started = time.monotonic()
@@ -78,9 +81,9 @@ class Recording:
             if self.on_first_message is not None:
                 self.on_first_message(topic, expected[0])
         self.writer.write(topic, receive_ns, data)
-        if self.first_ns is None:
-            self.first_ns = receive_ns
-        self.last_ns = receive_ns
+        # a backlog taken after the bag opened comes topic by topic, not in time order
+        self.first_ns = receive_ns if self.first_ns is None else min(self.first_ns, receive_ns)
+        self.last_ns = receive_ns if self.last_ns is None else max(self.last_ns, receive_ns)
 
     @property
     def counts(self) -> dict[str, int]:

@@ -6,7 +6,9 @@
   complete for other tools).
 - ``play BAG``: the ``replay`` node in this process (original timing, rate, loop, remapping,
   ``/clock``; timing error at the end).
-- ``info BAG``: topics, types, counts, rates, QoS, and what is wrong with a damaged bag.
+- ``info BAG``: topics, types, counts, rates, QoS, what is wrong with a damaged bag, and — for a
+  recording of ``/spv/frame`` — the share of frames shown in the configured representation and
+  the fallbacks shown instead (:mod:`raspv_bags.shown_frames`).
 - ``repair BAG``: a complete copy of everything readable.
 - ``from-frames DIR -o BAG``: a bag from colour/depth image folders (TUM layout and others).
 """
@@ -111,18 +113,23 @@ def _err(action: str, text: str) -> int:
 # -- record -------------------------------------------------------------------------------------
 
 def _record(args: argparse.Namespace) -> int:
-    from raspv_bags.recording import Recording, TopicSelection
-    from raspv_bags.writer import BagWriteError
+    """Capture first, write second: the subscriptions to the known topics are made before the
+    bag is opened and rosbags' message types are loaded (≈0.4 s of CPU, issue 27), and the
+    messages that arrive meanwhile wait in each subscription's history (100 deep) and enter
+    the bag with the time the middleware received them."""
+    from raspv_bags.recording import TopicSelection
+    from raspv_common.startup_timing import startup_mark
+    startup_mark("command started")
 
     if args.duration is not None and args.duration <= 0:
         return _err("record", f"--duration must be > 0, got {args.duration}")
     if args.flush_interval <= 0:
         return _err("record", f"--flush-interval must be > 0, got {args.flush_interval}")
     out = Path(args.output or dt.datetime.now().strftime("rosbag2_%Y_%m_%d-%H_%M_%S"))
-    try:
-        recording = Recording(out, args.storage, flush_interval_s=args.flush_interval)
-    except BagWriteError as exc:
-        return _err("record", str(exc))
+    if out.exists():                     # BagWriter says so too; here before any ROS start-up
+        return _err("record", f"{out} exists already; choose a new output directory")
+    if not out.absolute().parent.is_dir():
+        return _err("record", f"{out.absolute().parent} is not a directory")
     selection = TopicSelection(tuple(args.topics), tuple(args.exclude))
 
     apply_middleware_defaults()
@@ -133,13 +140,18 @@ def _record(args: argparse.Namespace) -> int:
     previous = {s: signal.signal(s, lambda *_: stop.append(True)) for s in (signal.SIGINT, signal.SIGTERM)}
     rclpy.init(args=["raspv", "--ros-args", "--disable-rosout-logs"], signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node(f"raspv_bag_record_{os.getpid()}")
+    startup_mark("node created")
     tty = sys.stderr.isatty()
-    recorder = _GraphRecorder(node, recording, selection, tty)
+    recorder = _GraphRecorder(node, selection, tty)
     recorder.subscribe_known()          # before discovery: the first message of every known topic
-    print(f"recording to {out} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
-    start = time.monotonic()
-    last_status = last_discovery = last_flush = 0.0
+    startup_mark("known topics subscribed")
+    recording = None
     try:
+        recording = recorder.open_bag(out, args.storage, args.flush_interval)
+        startup_mark("bag opened")
+        print(f"recording to {out} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
+        start = time.monotonic()
+        last_status = last_discovery = last_flush = 0.0
         while not stop and rclpy.ok():
             rclpy.spin_once(node, timeout_sec=0.05)
             now = time.monotonic()
@@ -156,8 +168,11 @@ def _record(args: argparse.Namespace) -> int:
                 print(f"\r{line}{CLEAR_EOL}" if tty else line, end="" if tty else "\n", file=sys.stderr, flush=True)
             if args.duration is not None and now - start >= args.duration:
                 break
+    except _BagOpenError as exc:
+        return _err("record", str(exc))
     finally:
-        recording.close()
+        if recording is not None:
+            recording.close()
         node.destroy_node()
         rclpy.try_shutdown()
         for s, h in previous.items():
@@ -170,24 +185,28 @@ def _record(args: argparse.Namespace) -> int:
     return 0
 
 
+class _BagOpenError(Exception):
+    """The bag could not be created (one line)."""
+
+
 class _GraphRecorder:
     """Subscribes (raw) to the selected known topics at once, and to every other selected topic
     as it appears."""
 
-    def __init__(self, node, recording, selection, tty: bool) -> None:
-        self.node, self.recording, self.selection = node, recording, selection
+    def __init__(self, node, selection, tty: bool) -> None:
+        self.node, self.selection = node, selection
+        self.recording = None                            # the bag, once open_bag made it (callbacks run after)
+        self.write_error: type[Exception] = RuntimeError  # BagWriteError once rosbags is imported
         self.line_start = "\r" + CLEAR_EOL if tty else ""  # overwrite the status line on a terminal
         self.subscriptions: dict[str, object] = {}
         self.skipped: set[str] = set()
         self.ahead: dict[str, tuple[object, str]] = {}   # subscribed before discovery: (class, type), until publishers show
-        recording.on_first_message = self._first_message
 
     def subscribe_known(self) -> None:
         """Subscribe to the graph's known topics (:mod:`raspv_bags.known_topics`) with the QoS
-        their nodes publish with, before any publisher is discovered."""
+        their nodes publish with, before any publisher is discovered (and before the bag is
+        open: :meth:`open_bag` declares them)."""
         from raspv_bags.known_topics import known_topics
-        from raspv_bags.message_types import ensure_type
-        from raspv_bags.writer import QosSpec
         from raspv_common.ros_introspection import message_class
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -196,22 +215,43 @@ class _GraphRecorder:
                 cls = message_class(msgtype)
             except ValueError:
                 continue                                 # not installed here: discovery will say so
-            if not ensure_type(msgtype):
-                continue
             qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
-            self.recording.expect_topic(name, msgtype, [QosSpec(reliable=True, transient_local=latched, depth=10)])
             self.subscriptions[name] = self._subscribe(cls, name, qos)
             self.ahead[name] = (cls, msgtype)
 
-    def _subscribe(self, cls, name: str, qos):
-        from raspv_bags.writer import BagWriteError
-        write = self.recording.on_message
+    def open_bag(self, out: Path, storage: str, flush_interval_s: float):
+        """Create the bag and declare the topics subscribed ahead (their types made known to
+        the bag's typestore; a type it cannot describe is not recorded)."""
+        from raspv_bags.known_topics import KNOWN_TOPICS
+        from raspv_bags.message_types import ensure_type
+        from raspv_bags.recording import Recording
+        from raspv_bags.writer import BagWriteError, QosSpec
 
-        def on_message(data, topic=name):
+        try:
+            recording = Recording(out, storage, flush_interval_s=flush_interval_s)
+        except BagWriteError as exc:
+            raise _BagOpenError(str(exc)) from None
+        recording.on_first_message = self._first_message
+        self.write_error = BagWriteError
+        for name, (_cls, msgtype) in list(self.ahead.items()):
+            if not ensure_type(msgtype):
+                self.ahead.pop(name)
+                self._stop_recording(name, f"no message definition found for {msgtype}")
+                continue
+            latched = KNOWN_TOPICS[name][1]
+            recording.expect_topic(name, msgtype, [QosSpec(reliable=True, transient_local=latched, depth=10)])
+        self.recording = recording
+        return recording
+
+    def _subscribe(self, cls, name: str, qos):
+        def on_message(data, info, topic=name):
+            # the time the middleware received it: a message that waited in the history while
+            # the bag opened (or the writer was busy) keeps its real arrival time
+            received = info.get("received_timestamp") or time.time_ns()
             try:
-                write(topic, data, time.time_ns())
-            except BagWriteError as exc:
+                self.recording.on_message(topic, data, received)
+            except self.write_error as exc:              # this topic cannot be recorded
                 self._stop_recording(topic, str(exc))
         return self.node.create_subscription(cls, name, on_message, qos, raw=True)
 
@@ -222,7 +262,9 @@ class _GraphRecorder:
         self._skip(name, why)
 
     def _first_message(self, name: str, msgtype: str) -> None:
+        from raspv_common.startup_timing import startup_mark
         from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+        startup_mark(f"first message of {name}")
         sub = self.subscriptions.get(name)
         qos = sub.qos_profile if sub is not None else None
         kind = "reliable" if qos is None or qos.reliability == ReliabilityPolicy.RELIABLE else "best-effort"
@@ -379,9 +421,23 @@ def format_info(reader) -> str:
             qos = ("reliable" if q.reliable else "best-effort") + (" transient-local" if q.transient_local else "")
         unknown = "" if t.known_type else "  (unknown type)"
         lines.append(f"  {t.name:38s} {t.count:7d}  {rate}  {t.msgtype}  {qos}{unknown}")
+    share = _shown(reader)
+    if share is not None:
+        lines.append(f"shown:     {share}")
     for note in reader.notes:
         lines.append(f"note: {note}")
     return "\n".join(lines)
+
+
+def _shown(reader) -> str | None:
+    """What the wearer saw (/spv/frame), one line; None without that topic."""
+    from raspv_bags.shown_frames import bag_shown_share
+
+    try:
+        share = bag_shown_share(reader)
+    except Exception as exc:  # noqa: BLE001 - a frame that does not decode: say so, keep the rest of info
+        return f"/spv/frame could not be read ({type(exc).__name__}: {exc})"
+    return None if share is None else share.describe()
 
 
 # -- repair -------------------------------------------------------------------------------------

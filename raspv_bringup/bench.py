@@ -15,11 +15,13 @@ BENCHES: dict[str, str] = {
     "camera": "raspv_camera.bench",
     "hmd": "raspv_hmd.bench",
     "e2e": "raspv_hmd.e2e_bench",
+    "qoe": "raspv_hmd.qoe_bench",
     "seg": "raspv_perception.segmentation_bench",
     "nav": "raspv_nav.bench",
     "restart": "raspv_bringup.restart_bench",
     "budget": "raspv_spv.budget_bench",
     "soak": "raspv_bringup.soak_bench",
+    "foxglove": "raspv_viz.bench",
     "twin": "raspv_learn.bench_twin",
     "learned": "raspv_learn.bench_learned",
 }

@@ -13,6 +13,7 @@ import sys
 # name → (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "launch": ("raspv_bringup.launch_cli", "start a node graph from a YAML file and supervise it"),
+    "export-launch": ("raspv_bringup.export_launch_cli", "write a graph as a ros2 launch file (system ROS 2, colcon build)"),
     "demo": ("raspv_bringup.demo_cli", "run the virtual-world demo graph (config/demo.yaml)"),
     "topics": ("raspv_bringup.introspect_cli", "list topics and their types"),
     "hz": ("raspv_bringup.introspect_cli", "measure the publishing rate of a topic"),

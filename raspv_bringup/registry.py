@@ -35,6 +35,10 @@ NODES: dict[str, NodeSpec] = {
     "subject": NodeSpec("raspv_experiments.subject_node", "raspv_experiments.subject_params:PARAMS",
                         "scripted subject: sees /spv/frame and /spv/map only, drives /cmd_vel (experiments, sweeps)"),
     "camera": NodeSpec("raspv_camera.camera_node", "raspv_camera.camera_params:PARAMS", "a real RGB-D camera (RealSense, OpenNI2, DepthAI) or its SDK's recording: colour, registered depth, camera info, IMU"),
+    "viz": NodeSpec("raspv_viz.viz_node", "raspv_viz.viz_params:PARAMS",
+                    "RViz/Foxglove markers of planes, obstacles, free floor, stairs, path and phosphenes; depth as a point cloud"),
+    "foxglove": NodeSpec("raspv_viz.foxglove_node", "raspv_viz.foxglove_params:PARAMS",
+                         "Foxglove WebSocket server: the graph's topics (ROS 2 CDR) and run-time parameters, for the Foxglove app"),
     "replay": NodeSpec("raspv_camera.replay_node", "raspv_camera.replay_params:PARAMS", "a recorded bag as the source: original timing, rate, loop, remapping, /clock"),
 }
 

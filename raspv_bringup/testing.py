@@ -71,11 +71,12 @@ class RunningGraph:
         return self.log_path.read_text(errors="replace")
 
     def cpu_by_kind(self) -> dict[str, tuple[int, float]]:
-        """{node kind: (pid, CPU seconds so far)} of the graph's node processes."""
+        """{node kind: (pid, CPU seconds so far)} of the graph's node processes (of a kind with a warm
+        spare waiting, the older process: the one running the node)."""
         from raspv_bringup.registry import NODES
 
         module_kind = {spec.module: kind for kind, spec in NODES.items()}
-        out = {}
+        out, started = {}, {}
         try:
             children = psutil.Process(self.proc.pid).children(recursive=True)
         except psutil.Error:
@@ -84,11 +85,12 @@ class RunningGraph:
             try:
                 cmd = p.cmdline()
                 t = p.cpu_times()
+                created = p.create_time()
             except psutil.Error:
                 continue
             kinds = [module_kind[a] for a in cmd if a in module_kind]   # python -m [node_entry] MODULE
-            if kinds:
-                out[kinds[0]] = (p.pid, t.user + t.system)
+            if kinds and created < started.get(kinds[0], float("inf")):
+                out[kinds[0]], started[kinds[0]] = (p.pid, t.user + t.system), created
         return out
 
     @staticmethod

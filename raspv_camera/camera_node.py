@@ -74,7 +74,7 @@ class CameraNode(RaspvNode):
         self.pub_depth_info = self.create_publisher(CameraInfo, topics.DEPTH_INFO, SENSOR_QOS)
         self.pub_imu = self.create_publisher(Imu, topics.IMU, IMU_QOS) if p["imu"] else None
         self.runner = CameraRunner(self._make_driver, bool(p["file"]), options, self._publish_frame,
-                                   self._publish_imu if p["imu"] else None, self._log)
+                                   self._publish_imu if p["imu"] else None, self._log, on_state=self.announce_source)
         self._info_cache: tuple | None = None
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
         self._thread.start()

@@ -56,13 +56,14 @@ class CameraRunner:
 
     def __init__(self, make_driver: Callable[[], CameraDriver], is_file: bool, options: RunnerOptions,
                  on_frame: FrameCallback, on_imu: ImuCallback | None = None, log: LogCallback | None = None,
-                 now: Callable[[], float] = time.time) -> None:
+                 now: Callable[[], float] = time.time, on_state: Callable[[str], None] | None = None) -> None:
         self.make_driver = make_driver
         self.is_file = is_file
         self.options = options
         self.on_frame = on_frame
         self.on_imu = on_imu
         self.log = log or (lambda level, msg: None)
+        self.on_state = on_state or (lambda state: None)   # "delivering" / "down" (raspv_common.liveliness)
         self.now = now
         self.driver: CameraDriver | None = None
         self.frames = 0
@@ -116,11 +117,12 @@ class CameraRunner:
                     if self.options.at_end == "exit":
                         return "end"
                     if self.options.at_end == "hold":
+                        self.on_state("down")
                         self.log("info", "end of the recording; holding (at_end: hold)")
                         self._stop.wait()
                         return "stopped"
                     self.playback_clock.reset()
-                    continue                        # loop: open it again
+                    continue                        # loop: open it again (still delivering: not a stop)
                 if outcome == "lost":
                     down_since = time.monotonic()
                     self._stop.wait(self.options.retry_period)
@@ -129,6 +131,7 @@ class CameraRunner:
             self._disconnect()
 
     def _report_down(self, reason: str) -> None:
+        self.on_state("down")
         if reason != self.last_error:
             self.log("error" if self.connections else "warning",
                      f"{reason}; retrying every {self.options.retry_period:g} s")
@@ -145,6 +148,7 @@ class CameraRunner:
             driver.close()
             raise NoDevice(f"{driver.sdk}: {exc}") from None
         self.driver = driver
+        self.on_state("delivering")
         self.connections += 1
         self.sensor_clock.reset()
         if self.connections == 1:
@@ -192,6 +196,7 @@ class CameraRunner:
         return "stopped"
 
     def _lost(self, reason: str) -> str:
+        self.on_state("down")
         self.losses += 1
         self.last_error = reason
         self.log("error", f"camera lost: {reason}; reconnecting every {self.options.retry_period:g} s")

@@ -71,8 +71,11 @@ def list_all_devices(names: list[str] | None = None) -> list[SdkDevices]:
 
 def check_recording(path: str, params: dict) -> None:
     """Launch-time check of the camera node's ``file`` (the graph's ``driver`` parameter, or
-    the SDK the suffix names): raises ValueError with one line when it cannot be played. Opens
-    nothing and loads no SDK."""
+    the SDK the suffix names): raises ValueError with one line when it cannot be played — a
+    missing file, another SDK's suffix, or a file whose structure does not open
+    (:mod:`raspv_camera.recording_check`: what ``raspv bag info`` reads of a bag). Loads no SDK."""
+    from raspv_camera.recording_check import check_recording_opens
+
     name = params.get("driver", "auto")
     if name == "auto":
         name = driver_for_file(str(__import__("pathlib").Path(path).expanduser()))
@@ -80,6 +83,7 @@ def check_recording(path: str, params: dict) -> None:
             raise ValueError(f"{path}: cannot tell which SDK recorded it (.db3/.bag RealSense, .oni OpenNI2, "
                              "a directory of .mcap DepthAI); set 'driver'")
     try:
-        driver_class(name)(CameraSettings(file=path)).check_file()
+        checked = driver_class(name)(CameraSettings(file=path)).check_file()
+        check_recording_opens(checked, name)
     except CameraError as exc:
         raise ValueError(str(exc)) from None

@@ -79,6 +79,7 @@ class ReplayNode(RaspvNode):
         self._reported = False
         if p["paused"]:
             self.player.set_paused(True)
+            self.announce_source("paused")      # a known pause: consumers hold the last frame
         self.create_timer(2.0, self._check_other_publishers)
         self._checks_left = 3
         self._thread = threading.Thread(target=self._play, name="replay", daemon=True)
@@ -86,15 +87,25 @@ class ReplayNode(RaspvNode):
 
     # -- playback thread ----------------------------------------------------------------------
     def _publish(self, topic: str, _msgtype: str, data) -> None:
-        pub = self.publishers_by_topic[topic]
-        pub.publish(data if isinstance(data, bytes) else bytes(data))
+        self._send(self.publishers_by_topic[topic], data if isinstance(data, bytes) else bytes(data))
         if self.params["progress"]:
             self._print_status()
 
     def _publish_clock(self, bag_ns: int) -> None:
         msg = Clock()
         msg.clock.sec, msg.clock.nanosec = divmod(int(bag_ns), 1_000_000_000)
-        self.pub_clock.publish(msg)
+        self._send(self.pub_clock, msg)
+
+    def _send(self, publisher, msg) -> None:
+        """Publish; when Ctrl-C (SIGINT/SIGTERM) shut the context down between two messages,
+        stop the playback instead: rclpy then refuses to publish ("publisher's context is
+        invalid"), and a clean stop is not an error."""
+        try:
+            publisher.publish(msg)
+        except Exception:
+            if self.context.ok():
+                raise
+            self.player.stop()
 
     def _wait_before_start(self) -> None:
         """``delay``, then ``wait_for_subscribers`` (at most 30 s), unless stopped meanwhile."""
@@ -119,6 +130,7 @@ class ReplayNode(RaspvNode):
             self.get_logger().error(f"playback stopped: {exc}")
             self.report = None
         if not self.player.stop_requested:
+            self.announce_source("down")        # the end of the recording: nothing more will come
             self._log_report()
             if self.params["at_end"] == "exit":
                 self.context.try_shutdown()
@@ -141,12 +153,22 @@ class ReplayNode(RaspvNode):
             print(file=sys.stderr)
         counts = ", ".join(f"{t} {n}" for t, n in sorted(rep.counts.items()))
         end = "stopped" if rep.stopped else "finished"
-        self.get_logger().info(f"{end}: {sum(rep.counts.values())} messages in {rep.wall_s:.1f} s "
-                               f"({rep.loops} pass{'es' if rep.loops > 1 else ''}; {counts})")
-        self.get_logger().info(rep.timing.line())
+        self._say("info", f"{end}: {sum(rep.counts.values())} messages in {rep.wall_s:.1f} s "
+                          f"({rep.loops} pass{'es' if rep.loops > 1 else ''}; {counts})")
+        self._say("info", rep.timing.line())
         for note in rep.notes:
             if note not in self.player.reader.notes:
-                self.get_logger().warning(note)
+                self._say("warning", note)
+
+    def _say(self, level: str, text: str) -> None:
+        """The ROS logger while the context lives; after Ctrl-C shut it down, plain stderr (the
+        logger would add "Failed to publish log message to rosout" to every line)."""
+        if not self.context.ok():
+            print(f"[{level.upper()}] [{self.get_name()}]: {text}", file=sys.stderr, flush=True)
+        elif level == "warning":      # one call site per severity: rclpy refuses a change between calls
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
 
     # -- graph checks and parameters -----------------------------------------------------------
     def _check_other_publishers(self) -> None:
@@ -165,6 +187,7 @@ class ReplayNode(RaspvNode):
             self.player.set_rate(changes["rate"])
         if "paused" in changes:
             self.player.set_paused(changes["paused"])
+            self.announce_source("paused" if changes["paused"] else "delivering")
         if "loop" in changes:
             self.player.options.loop = changes["loop"]
         return None

@@ -25,6 +25,7 @@ from std_msgs.msg import Header
 from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrinsics, depth_from_image,
                                       seconds_to_stamp)
 from raspv_common.intrinsics import CameraIntrinsics
+from raspv_common.liveliness import AliveAnnouncement
 from raspv_common.params import Param, ParamSchema
 from raspv_common.startup_timing import startup_mark
 from raspv_common.thread_priority import raise_thread_priority
@@ -61,7 +62,9 @@ class RaspvNode(Node):
     """A node whose parameters come from a :class:`Param` list.
 
     Subclasses read ``self.params`` (current values by name) and override
-    :meth:`on_parameters` to apply run-time changes.
+    :meth:`on_parameters` to apply run-time changes. Every node announces that it lives on
+    ``/raspv/alive/<name>`` (:mod:`raspv_common.liveliness`); a source tells what it is doing
+    with :meth:`announce_source` (delivering, paused, down).
     """
 
     def __init__(self, name: str, params: Sequence[Param], **kwargs: Any) -> None:
@@ -87,6 +90,12 @@ class RaspvNode(Node):
             raise ConfigurationError("; ".join(f"parameter '{k}': {m}" for k, m in errors))
         self.params: dict[str, Any] = values
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._alive = AliveAnnouncement(self)
+
+    def announce_source(self, state: str) -> None:
+        """Tell consumers what this node's source is doing: ``delivering``, ``paused`` (a known
+        pause: they hold the last frame) or ``down`` (nothing will come: they show it at once)."""
+        self._alive.set(state)
 
     # -- parameters -------------------------------------------------------------------------
     def on_parameters(self, changes: dict[str, Any]) -> str | None:

@@ -138,6 +138,14 @@ class ParamClient:
             future.add_done_callback(
                 lambda f: done([(n, r.successful, r.reason) for n, r in zip(names, f.result().results)]))
 
+    def list_async(self, done: Callable[[list[str] | None], None]) -> None:
+        """``done`` gets the node's parameter names (sorted), or None when it is not reachable."""
+        if not self._list.service_is_ready():
+            done(None)
+            return
+        self._list.call_async(ListParameters.Request()).add_done_callback(
+            lambda f: done(sorted(f.result().result.names) if f.result() is not None else None))
+
     def get_async(self, names: list[str], done: Callable[[dict[str, Any]], None]) -> None:
         """``done`` gets {name: value}, None for names the node does not have (or for every
         name when the node is not reachable)."""

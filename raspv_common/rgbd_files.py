@@ -12,6 +12,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from raspv_common.image_files import decode_image_file
+
 
 class RGBDFormatError(ValueError):
     """A file could not be read as the colour or depth image it was said to be."""
@@ -19,14 +21,14 @@ class RGBDFormatError(ValueError):
 
 def read_color(path: str | Path) -> np.ndarray:
     """Colour image file → RGB uint8 (H, W, 3)."""
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    img = decode_image_file(path, cv2.IMREAD_COLOR)
     if img is None:
         raise RGBDFormatError(f"{path}: not a readable colour image")
     return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
 
 
 def _read_uint16(path: str | Path) -> np.ndarray:
-    raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    raw = decode_image_file(path, cv2.IMREAD_UNCHANGED)
     if raw is None:
         raise RGBDFormatError(f"{path}: not a readable depth image")
     if raw.ndim != 2 or raw.dtype != np.uint16:

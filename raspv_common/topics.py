@@ -40,6 +40,7 @@ NAV_OBSTACLE_LAYER = "/nav/obstacle_layer"  # nav_msgs/OccupancyGrid, live obsta
 SPV_IMAGE = "/spv/image"                    # sensor_msgs/Image mono8 (or rgb8 green channel)
 SPV_FRAME = "/spv/frame"                    # raspv_msgs/PhospheneFrame
 SPV_MAP = "/spv/map"                        # raspv_msgs/PhospheneMap, transient-local
+SPV_SPRITES = "/spv/sprites"                # raspv_msgs/PhospheneSprites, transient-local: what the levels stream draws with
 SPV_STATUS = "/spv/status"                  # std_msgs/String JSON, latched: what the display shows and which inputs are stale
 
 CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; sim: simulation time)
@@ -47,3 +48,10 @@ CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; s
 # Experiments (raspv_experiments).
 EXPERIMENT_INSTRUCTIONS = "/experiment/instructions"  # std_msgs/String JSON, latched: what the subject is told
 EXPERIMENT_RESPONSE = "/experiment/response"          # std_msgs/String JSON: the subject's start/abort
+
+# Live views (raspv_viz): markers of what perception found and the depth as a point cloud.
+VIZ_SCENE = "/viz/scene"                    # visualization_msgs/MarkerArray: planes with hulls, obstacles, free floor
+VIZ_STAIRS = "/viz/stairs"                  # visualization_msgs/MarkerArray: treads and the stair wireframe
+VIZ_PATH = "/viz/path"                      # visualization_msgs/MarkerArray: the planned path and its goal
+VIZ_PHOSPHENES = "/viz/phosphenes"          # visualization_msgs/MarkerArray: the phosphenes placed in front of the camera
+VIZ_CLOUD = "/viz/cloud"                    # sensor_msgs/PointCloud2: decimated depth (xyz + rgb)

@@ -26,11 +26,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="+", metavar="FILE")
     p = sub.add_parser("plan", help="print a subject's trial order")
     p.add_argument("protocol")
-    p.add_argument("--subject", required=True, help="subject id with a number, e.g. S07")
+    p.add_argument("--subject", required=True, help="subject id with a number, e.g. S07, or scripted:POLICY[:N]")
     p = sub.add_parser("run", help="run a session: the graph, then every trial of the protocol for one subject")
     p.add_argument("protocol")
-    p.add_argument("--subject", required=True, help="S07 (a person), or scripted:POLICY[:N] (a virtual subject: "
-                                                    "follow_path or wander_avoid, number N)")
+    p.add_argument("--subject", required=True, help="S07 (a person), or scripted[:POLICY[:N]] (a virtual subject: "
+                                                    "navigate (the default), follow_path or wander_avoid, number N)")
     p.add_argument("--out", default="sessions", help="sessions go to OUT/<protocol>/<subject>/ (default: sessions)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted session at its next trial")
     p.add_argument("--bag", action="store_true", default=None, help="record a bag of every trial (default: the "
@@ -44,10 +44,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
                    help="run on a Ray cluster (ADDRESS, e.g. auto or ray://host:10001; no ADDRESS: a local Ray)")
     p.add_argument("--resume", action="store_true", help="continue sessions already in OUT")
+    p.add_argument("--domains", default=None, metavar="LOW-HIGH",
+                   help="ROS domain ids the sweep's graphs may take, e.g. 100-140 (default: 30-230, any free one)")
     p = sub.add_parser("report", help="tidy CSV and HTML report with figures and statistics")
     p.add_argument("dirs", nargs="+", metavar="DIR", help="session or sweep folders (searched for trials.jsonl)")
     p.add_argument("-o", "--out", default="report", help="output folder (default: report)")
     p.add_argument("--title", default=None)
+    p.add_argument("--pool", action="store_true", help="pool sessions of different protocols (refused otherwise); "
+                                                       "subjects become protocol/subject")
+    p.add_argument("--share-threshold", type=float, default=None, metavar="FRACTION",
+                   help="flag trials whose share of frames in their own representation is below this "
+                        "(default 0.995)")
 
 
 def _err(text: str) -> int:
@@ -63,21 +70,28 @@ def run(args: argparse.Namespace) -> int:
     return {"check": _check, "plan": _plan, "run": _run, "sweep": _sweep, "report": _report}[args.action](args)
 
 
-def _load(name: str):
+def _load(name: str, warn: bool = True):
     from raspv_experiments.protocol import load_protocol, resolve_protocol_path
 
-    return load_protocol(resolve_protocol_path(name))
+    protocol = load_protocol(resolve_protocol_path(name))
+    if warn and protocol.name != protocol.path.stem:
+        print(f"raspv experiment: warning: {protocol.path}: name: {protocol.name!r} is not the file's name "
+              f"({protocol.path.stem!r}): its sessions go to <out>/{protocol.name}/ — beside any other protocol of "
+              "that name (a copied file keeps the original's name: change it)", file=sys.stderr)
+    return protocol
 
 
 def _check(args) -> int:
     from raspv_experiments.protocol import ProtocolError
     from raspv_experiments.sweep import load_sweep
 
+    from raspv_experiments.protocol import resolve_protocol_path
+
     code = 0
     for f in args.files:
         try:
-            if _is_sweep(Path(f)):
-                s = load_sweep(f)
+            if _is_sweep(resolve_protocol_path(f)):
+                s = load_sweep(resolve_protocol_path(f))
                 print(f"ok: {f}: sweep of {len(s.subjects)} virtual subjects × {len(s.protocol.conditions)} conditions")
             else:
                 p = _load(f)
@@ -105,9 +119,12 @@ def _plan(args) -> int:
     from raspv_experiments.design import plan_session
     from raspv_experiments.protocol import ProtocolError
 
+    from raspv_experiments.session_runner import parse_subject
+
     try:
         protocol = _load(args.protocol)
-        trials = plan_session(protocol, args.subject)
+        subject, _, _ = parse_subject(args.subject)
+        trials = plan_session(protocol, subject)
     except ProtocolError as exc:
         print("\n".join(exc.errors), file=sys.stderr)
         return 2
@@ -166,18 +183,32 @@ def _run(args) -> int:
 
 
 def _sweep(args) -> int:
-    from raspv_experiments.protocol import ProtocolError
+    from raspv_experiments.protocol import ProtocolError, resolve_protocol_path
     from raspv_experiments.sweep import load_sweep, run_sweep
 
     try:
-        sweep = load_sweep(args.sweep)
+        sweep = load_sweep(resolve_protocol_path(args.sweep))
     except ProtocolError as exc:
         print("\n".join(exc.errors), file=sys.stderr)
         return 2
     out = Path(args.out or f"sweeps/{sweep.name}")
     if args.workers is not None and args.workers < 1:
         return _err(f"--workers must be >= 1, got {args.workers}")
-    results = run_sweep(sweep, out, args.workers, args.ray, args.resume)
+    domains = None
+    if args.domains is not None:
+        try:
+            low, high = (int(v) for v in args.domains.split("-"))
+            if not 0 <= low < high <= 233:
+                raise ValueError
+        except ValueError:
+            return _err(f"--domains {args.domains}: expected LOW-HIGH with 0 <= LOW < HIGH <= 233 (Fast DDS ports), "
+                        "e.g. 100-140")
+        domains = (low, high)
+    try:
+        results = run_sweep(sweep, out, args.workers, args.ray, args.resume, domains=domains)
+    except ProtocolError as exc:
+        print("\n".join(exc.errors), file=sys.stderr)
+        return 2
     bad = [r for r in results if r["code"] != 0]
     print(f"sweep done: {len(results)} sessions in {out / 'sessions'}; report: raspv experiment report {out}")
     return 1 if bad else 0
@@ -186,8 +217,14 @@ def _sweep(args) -> int:
 def _report(args) -> int:
     from raspv_experiments.report import ReportError, build_report
 
+    from raspv_common.shown_share import DEFAULT_THRESHOLD
+
+    threshold = DEFAULT_THRESHOLD if args.share_threshold is None else args.share_threshold
+    if not 0.0 <= threshold <= 1.0:
+        return _err(f"--share-threshold must be a fraction in [0, 1], got {threshold}")
     try:
-        path = build_report([Path(d) for d in args.dirs], Path(args.out), args.title)
+        path = build_report([Path(d) for d in args.dirs], Path(args.out), args.title, pool=args.pool,
+                            share_threshold=threshold)
     except ReportError as exc:
         return _err(str(exc))
     print(f"report: {path} (data: {path.parent / 'trials.csv'})")

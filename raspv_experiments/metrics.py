@@ -10,7 +10,7 @@ From ``trajectory.csv`` (base and head at the log rate, sim time) and ``events.j
   successful trials (1 = the shortest path, lower = detours);
 - **collisions**: count, and what was hit (``class:name``, in order) and per class;
 - **minimum clearance** [m]: smallest distance between the body (a cylinder of the avatar's
-  radius) and a static object along the trajectory (from the 5 cm occupancy map, so ±2.5 cm;
+  radius) and a static object along the trajectory (from the 5 cm occupancy map, ±3 cm along faces;
   people are not static and are counted by collisions only);
 - **head rotation** [deg] and [deg/s]: total angle the head turned relative to the body (the
   angle between successive head orientations, summed) — sampled at the log rate, so faster
@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from raspv_sim.avatar import head_quaternion
-from raspv_sim.experiment_log import read_events, read_trajectory
+from raspv_sim.experiment_log import read_events, read_trajectory, sim_time_at_start
 
 OUTCOMES = ("goal", "time_limit", "aborted")
 
@@ -63,8 +63,9 @@ def head_rotation_deg(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> f
 
 
 def trajectory_arrays(run_dir: str | Path, t0: float, t1: float) -> dict[str, np.ndarray]:
-    """Trajectory columns between sim times t0 and t1 [s] as arrays."""
+    """Trajectory columns between sim times t0 and t1 [s] as arrays (``t`` in sim time)."""
     cols = {k: np.asarray(v, dtype=float) for k, v in read_trajectory(run_dir).items()}
+    cols["t"] = cols["t"] + sim_time_at_start(run_dir)
     keep = (cols["t"] >= t0 - 1e-6) & (cols["t"] <= t1 + 1e-6)
     return {k: v[keep] for k, v in cols.items()}
 
@@ -75,7 +76,9 @@ def trial_metrics(run_dir: str | Path, start_t: float, end_t: float, aborted: bo
     [s]; ``goal_name`` is the name its goal has in the log's goal events; ``geometry`` a
     :class:`~raspv_experiments.world_geometry.WorldGeometry` for the clearance (None: NaN)."""
     traj = trajectory_arrays(run_dir, start_t, end_t)
-    events = [e for e in read_events(run_dir) if start_t - 1e-6 <= e.get("t", -1.0) <= end_t + 1e-6]
+    offset = sim_time_at_start(run_dir)
+    events = [{**e, "t": e["t"] + offset} for e in read_events(run_dir) if isinstance(e.get("t"), (int, float))]
+    events = [e for e in events if start_t - 1e-6 <= e["t"] <= end_t + 1e-6]
     goal_t = next((e["t"] for e in events if e.get("event") == "goal" and e.get("name") == goal_name), None)
     reached = goal_t is not None and goal_t - start_t <= time_limit + 1e-6
     outcome = "goal" if reached else ("aborted" if aborted else "time_limit")

@@ -13,10 +13,17 @@ returns a walking command (m/s, rad/s) and the head pitch. Policies:
 ``wander_avoid``
     walks forward and turns away from bright phosphenes in the lower part of the view (near
     things: obstacles in Wall-Obstacles, near surfaces in depth mode).
+``navigate`` (:mod:`raspv_experiments.navigate_policy`, the default virtual patient)
+    follows a trail when one stands out, else walks toward the goal it was told about by path
+    integration, steering around what stands out from the floor of each image row.
 
-Both add seeded motor noise (``noise`` rad/s) so several seeds make a population, and both
-notice when they walk into something they did not see — the view stops changing while they walk
-(no optic flow) — and step back, turning a little. Frames:
+Every policy has a seeded **ability** (:class:`PolicyConfig`; a population of them in
+:mod:`raspv_experiments.subject_ability`): motor noise (``noise`` rad/s), a perceptual threshold
+(``min_brightness``: dimmer is not seen) and perceptual noise (``perception_noise``, added to
+every brightness read), and a reaction time (``reaction_time_s``: a command acts that much
+sim time after the frame it was decided on; until then the subject stands). All notice when
+they walk into something they did not see — the view stops changing while they walk (no optic
+flow) — and step back, turning a little. Frames:
 phosphene image pixels (x right, y down, principal point at the image centre, focal f_P);
 head frame x forward, y left, z up; pitch > 0 looks down.
 """
@@ -63,9 +70,13 @@ class PolicyConfig:
     eye_height: float = 1.6          # m
     lookahead: float = 1.0           # m, follow_path's pursuit distance
     bright_ratio: float = 0.85       # follow_path: trail phosphenes are ≥ this × the frame's brightest
-    min_brightness: float = 0.15     # nothing dimmer counts as seen
+    min_brightness: float = 0.15     # perceptual threshold: nothing dimmer counts as seen
     noise: float = 0.05              # rad/s std. dev. of motor noise
     seed: int = 1
+    reaction_time_s: float = 0.0     # s of sim time between a frame and the command decided on it
+    perception_noise: float = 0.0    # std. dev. of the noise added to every brightness read (0..1 scale)
+    contrast_threshold: float = 0.12  # navigate: brighter than its row's floor by this much stands out
+    frame_period_s: float = 0.1      # assumed time between frames when they carry no time
 
 
 class Policy(ABC):
@@ -85,22 +96,56 @@ class Policy(ABC):
         self.ground_distance = np.hypot(self.ground[:, 0], self.ground[:, 1])
         self._history: deque[tuple[np.ndarray, float]] = deque(maxlen=self.STILL_FRAMES)
         self._back, self._back_side = 0, 1.0
+        self._decided: deque[tuple[float, float, float]] = deque()      # (t, v, w) awaiting the reaction time
+        self._acting = (0.0, 0.0)
+        self.t: float | None = None                                      # sim time of the last frame [s]
+        self.mode, self.overlays = "", ()                                # the representation shown (show())
+        self.dt = self.config.frame_period_s
 
     STILL_FRAMES = 12          # frames walking with an (almost) unchanging view: blocked
     BACK_FRAMES = 15           # frames to step back and turn then
     STILL_CHANGE = 0.03        # mean brightness change over STILL_FRAMES below which the view is unchanged
     # (measured in the office at 10 Hz, 0.6 m/s: walking changes it by 0.1–0.28 over 12 frames)
 
-    def act(self, brightness: np.ndarray) -> Command:
+    def act(self, brightness: np.ndarray, t: float | None = None) -> Command:
+        """The command for one frame: its displayed brightness (0..1 per phosphene) and its sim
+        time ``t`` [s] (None: frames ``frame_period_s`` apart)."""
         b = np.nan_to_num(np.asarray(brightness, dtype=float), nan=0.0)
         if b.shape != (len(self.layout.x),):
             raise ValueError(f"{len(b)} brightness values for {len(self.layout.x)} phosphenes")
+        c = self.config
+        t = (self.t + c.frame_period_s if self.t is not None else 0.0) if t is None else float(t)
+        self.dt = c.frame_period_s if self.t is None else max(t - self.t, 0.0)
+        self.t = t
+        if c.perception_noise > 0:
+            b = b + self.rng.normal(0.0, c.perception_noise, b.shape)
+        b = np.where(b >= c.min_brightness, np.clip(b, 0.0, 1.0), 0.0)      # below the threshold: not seen
         v, w = self.unblock(b) or self.decide(b)
         self._history.append((b, v))
-        c = self.config
+        v, w = self._react(t, float(np.clip(v, -c.max_linear, c.max_linear)), float(np.clip(w, -c.max_angular, c.max_angular)))
+        self.executed(v, w)
         w += self.rng.normal(0.0, c.noise) if c.noise > 0 else 0.0
-        return Command(float(np.clip(v, -c.max_linear, c.max_linear)), float(np.clip(w, -c.max_angular, c.max_angular)),
-                       math.radians(c.head_pitch_deg))
+        return Command(v, float(np.clip(w, -c.max_angular, c.max_angular)), math.radians(c.head_pitch_deg))
+
+    def _react(self, t: float, v: float, w: float) -> tuple[float, float]:
+        """The command decided ``reaction_time_s`` ago (standing still before the first)."""
+        rt = self.config.reaction_time_s
+        if rt <= 0:
+            return v, w
+        self._decided.append((t, v, w))
+        while self._decided and self._decided[0][0] <= t - rt + 1e-6:
+            _, *self._acting = self._decided.popleft()
+        return tuple(self._acting)
+
+    def executed(self, v: float, w: float) -> None:
+        """The command the body carries out now (m/s, rad/s, before motor noise): path integration."""
+
+    def show(self, mode: str, overlays) -> None:
+        """The representation the frames are in (named in each /spv/frame: a subject is told the condition)."""
+        self.mode, self.overlays = str(mode), tuple(overlays)
+
+    def touch(self) -> None:
+        """The body bumped into something (a collision, felt): policies that use touch react."""
 
     def unblock(self, b: np.ndarray) -> tuple[float, float] | None:
         """Walking into something the subject did not see: the view stops changing while they
@@ -126,7 +171,7 @@ class FollowPath(Policy):
 
     PEAK_DECAY = 0.97                        # per frame: the remembered brightest fades over seconds
 
-    def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None) -> None:
+    def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None, **_) -> None:
         super().__init__(layout, config)
         self.last_side = 1.0                 # +1: the trail was last seen to the left
         self.peak = 0.0                      # the brightest the subject saw lately
@@ -162,7 +207,7 @@ class FollowPath(Policy):
 class WanderAvoid(Policy):
     name = "wander_avoid"
 
-    def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None) -> None:
+    def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None, **_) -> None:
         super().__init__(layout, config)
         lower = layout.y >= layout.height * 0.45
         u = (layout.x - layout.width / 2.0) / layout.width
@@ -184,10 +229,14 @@ class WanderAvoid(Policy):
         return c.max_linear * (1.0 - min(centre, 0.5)), 1.5 * (right - left)
 
 
-POLICIES: dict[str, type[Policy]] = {"follow_path": FollowPath, "wander_avoid": WanderAvoid}
+def policies() -> dict[str, type[Policy]]:
+    from raspv_experiments.navigate_policy import Navigate
+
+    return {"navigate": Navigate, "follow_path": FollowPath, "wander_avoid": WanderAvoid}
 
 
-def make_policy(name: str, layout: PhospheneLayout, config: PolicyConfig | None = None) -> Policy:
-    if name not in POLICIES:
-        raise ValueError(f"unknown scripted-subject policy {name!r}; known: {', '.join(POLICIES)}")
-    return POLICIES[name](layout, config)
+def make_policy(name: str, layout: PhospheneLayout, config: PolicyConfig | None = None, **kw) -> Policy:
+    known = policies()
+    if name not in known:
+        raise ValueError(f"unknown scripted-subject policy {name!r}; known: {', '.join(known)}")
+    return known[name](layout, config, **kw)

@@ -9,6 +9,7 @@ documented example; docs/experiments.md the reference. Every mistake is reported
 """
 from __future__ import annotations
 
+import difflib
 import hashlib
 import math
 import re
@@ -20,6 +21,7 @@ import yaml
 
 from raspv_bringup.graph import Graph, GraphError, graph_from_doc, load_graph, resolve_graph_path
 from raspv_bringup.registry import schema_for
+from raspv_common.text_files import read_text_file
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 EXPERIMENTS_DIR = REPO_ROOT / "experiments"
@@ -69,6 +71,7 @@ class Task:
 class Condition:
     name: str
     params: dict[str, dict[str, Any]]    # node name → {parameter: value}
+    factors: dict[str, str] = field(default_factory=dict)   # sweeps: factor (NODE.PARAM) → level label
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,7 @@ class Protocol:
     record: RecordSpec
     text: str = ""                       # the file as written (copied into each session)
     controlled: dict[str, dict[str, Any]] = field(default_factory=dict)   # node → {param: base value}
+    factors: dict[str, list[str]] = field(default_factory=dict)   # sweeps: factor → level labels, in order
 
     @property
     def sha256(self) -> str:
@@ -154,14 +158,20 @@ class _Checker:
             return {}
         return value
 
-    def keys(self, value: dict, key: str, allowed: set[str]) -> None:
-        for k in sorted(set(value) - allowed, key=str):
-            self.fail(f"{key}.{k}", f"unknown key; allowed: {', '.join(sorted(allowed))}")
+    def keys(self, value: dict, key: str, allowed: set[str]) -> list[str]:
+        """Report each key of ``value`` not in ``allowed`` (with the closest allowed name);
+        returns them."""
+        unknown = sorted(set(value) - allowed, key=str)
+        for k in unknown:
+            self.fail(f"{key}.{k}", f"unknown key; allowed: {', '.join(sorted(allowed))}{_did_you_mean(k, allowed)}")
+        return unknown
 
     def number(self, value: Any, key: str, lo: float = -math.inf, hi: float = math.inf, positive: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                or value < lo or value > hi or (positive and value <= 0):
-            rng = "a positive number" if positive else f"a number in [{lo:g}, {hi:g}]"
+        rng = "a positive number" if positive else f"a number in [{lo:g}, {hi:g}]"
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(key, f"expected {rng}, got {value!r}, which is {_type_name(value)}, not a number")
+            return float("nan")
+        if not math.isfinite(value) or value < lo or value > hi or (positive and value <= 0):
             self.fail(key, f"expected {rng}, got {value!r}")
             return float("nan")
         return float(value)
@@ -185,18 +195,30 @@ class _Checker:
         return (self.number(value[0], key), self.number(value[1], key))
 
 
+def _did_you_mean(name: Any, allowed: set[str]) -> str:
+    close = difflib.get_close_matches(str(name), sorted(allowed), n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def _type_name(value: Any) -> str:
+    return {str: "text", bool: "true/false", list: "a list", dict: "a mapping", type(None): "empty"}.get(
+        type(value), type(value).__name__)
+
+
+def _positive(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0
+
+
 def load_protocol(path: str | Path) -> Protocol:
     """Read and validate a protocol file; raise :class:`ProtocolError` listing every mistake."""
     path = Path(path)
     if not path.is_file():
         raise ProtocolError([f"{path}: no such protocol file" + (" (it is a directory)" if path.is_dir() else "")])
+    text = read_text_file(path, "protocol file", lambda line: ProtocolError([line]), str(path))
     try:
-        text = path.read_text()
         doc = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ProtocolError([_yaml_line(path, exc)]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ProtocolError([f"{path}: cannot read ({exc})"]) from None
     return parse_protocol(doc, path, text)
 
 
@@ -283,15 +305,22 @@ def _goal(value: Any, key: str, world: str, ck: _Checker) -> Goal | None:
 
     value = ck.mapping(value, key, "{position: [5, 6], radius: 0.5} or {object: bin, within: 1.0}")
     kinds = [k for k in ("position", "object", "name") if k in value]
+    # every mistake at once: unknown keys (a misspelt 'positon' named as such), wrong types
+    unknown = ck.keys(value, key, {"position", "radius", "object", "within", "name"})
+    for k in ("radius", "within"):
+        if k in value:
+            ck.number(value[k], f"{key}.{k}", positive=True)
     if len(kinds) != 1:
-        ck.fail(key, "give exactly one of position (with radius), object (with within) or name (a goal of the world)")
+        if len(kinds) > 1 or not unknown:
+            ck.fail(key, "give exactly one of position (with radius), object (with within) or name (a goal of the world)")
         return None
     kind = kinds[0]
-    ck.keys(value, key, {"position": {"position", "radius"}, "object": {"object", "within"},
-                         "name": {"name"}}[kind])
+    for k in sorted({"radius", "within"} - {"position": {"radius"}, "object": {"within"}, "name": set()}[kind]):
+        if k in value:
+            ck.fail(f"{key}.{k}", f"applies to a goal given by {'position' if k == 'radius' else 'object'}, not by {kind}")
     if kind == "position":
         x, y = ck.point(value["position"], f"{key}.position")
-        r = ck.number(value.get("radius", 0.5), f"{key}.radius", positive=True)
+        r = float(value["radius"]) if _positive(value.get("radius", 0.5)) else 0.5     # else reported above
         return Goal(x, y, r, f"({x:g}, {y:g})")
     try:
         spec = load_world(world)
@@ -309,7 +338,7 @@ def _goal(value: Any, key: str, world: str, ck: _Checker) -> Goal | None:
     if target not in objects:
         ck.fail(f"{key}.object", f"{target!r} is not an object of world {spec.name}; objects: {', '.join(sorted(objects))}")
         return None
-    within = ck.number(value.get("within", 1.0), f"{key}.within", positive=True)
+    within = float(value["within"]) if _positive(value.get("within", 1.0)) else 1.0    # else reported above
     pos = objects[target]
     return Goal(float(pos[0]), float(pos[1]), within, str(target))
 
@@ -338,12 +367,23 @@ def _tasks(value: Any, path: Path, ck: _Checker) -> list[Task]:
         try:
             load_world(world_ref)
         except WorldFileError as exc:
-            ck.fail(f"{key}.world", str(exc))
+            for line in exc.errors:
+                ck.fail(f"{key}.world", line)
             continue
         start = ck.mapping(body.get("start"), f"{key}.start", "{position: [1.0, 6.0], yaw: 0}")
         ck.keys(start, f"{key}.start", {"position", "yaw"})
-        sx, sy = ck.point(start.get("position"), f"{key}.start.position") if start else (0.0, 0.0)
+        sx, sy = (0.0, 0.0)
+        if start and "position" not in start:
+            ck.fail(f"{key}.start.position", "missing, e.g. position: [1.0, 6.0]")
+        elif start:
+            sx, sy = ck.point(start["position"], f"{key}.start.position")
         yaw = ck.number(start.get("yaw", 0.0), f"{key}.start.yaw", -360, 360) if start else 0.0
+        if start and math.isfinite(sx) and math.isfinite(sy) and math.isfinite(yaw):
+            from raspv_experiments.world_geometry import start_problem
+
+            problem = start_problem(world_ref, sx, sy, math.radians(yaw))
+            if problem:
+                ck.fail(f"{key}.start.position", f"the avatar at [{sx:g}, {sy:g}] {problem}; move the start")
         goal = _goal(body.get("goal"), f"{key}.goal", world_ref, ck)
         limit = ck.number(body.get("time_limit", 60.0), f"{key}.time_limit", positive=True)
         text = body.get("instructions", "")

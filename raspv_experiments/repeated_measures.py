@@ -15,10 +15,19 @@ subjects × conditions table. Then:
 
 With n subjects a two-sided Wilcoxon test cannot give p below 2 / 2ⁿ, so fewer than 6 subjects
 can never reach p < 0.05: the report says so rather than showing bare p-values.
+
+Effect sizes beside the p-values: **Kendall's W** for the Friedman test (χ² / (n (k − 1)): 0 no
+agreement among subjects on the order of the conditions, 1 all rank them alike) and the
+**matched-pairs rank-biserial r** for each pair ((T⁺ − T⁻) / (T⁺ + T⁻) over the non-zero
+differences: +1 every subject higher in the first condition, −1 every subject lower); and a
+**bootstrap 95 % confidence interval** of the median paired difference (``scipy.stats.bootstrap``,
+BCa where it is defined, percentile otherwise, 9999 resamples of subjects, seeded: the same data
+give the same interval). Tied data give no scipy warnings: what cannot be tested is a note.
 """
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,9 +41,14 @@ ASSUMPTIONS = [
     "condition differs, not which.",
     "Pairwise Wilcoxon signed-rank tests (two-sided, exact for small samples without ties), Holm-corrected for "
     "the number of pairs: they assume symmetric paired differences.",
-    "Only subjects with every condition enter a measure's tests (complete cases). Failed trials enter "
-    "completion time at their duration (the time limit): the time is censored, not missing.",
+    "Only subjects with every condition enter a measure's tests (complete cases). Failed trials enter the "
+    "completion-time medians at their duration (the time limit): those times are censored, not missing — the "
+    "Kaplan–Meier curves and log-rank tests below treat them as such.",
+    "Effect sizes: Kendall's W (Friedman) and the matched-pairs rank-biserial r (Wilcoxon); 95 % confidence "
+    "intervals of the median paired difference by bootstrapping subjects (seeded).",
 ]
+BOOTSTRAP_RESAMPLES = 9999
+BOOTSTRAP_SEED = 0
 
 
 @dataclass
@@ -47,6 +61,9 @@ class PairTest:
     p: float
     p_holm: float = math.nan
     note: str = ""
+    rank_biserial: float = math.nan      # matched-pairs rank-biserial r of (a − b)
+    ci_low: float = math.nan             # bootstrap 95 % CI of the median of (a − b)
+    ci_high: float = math.nan
 
 
 @dataclass
@@ -58,6 +75,7 @@ class MeasureTests:
     friedman_statistic: float = math.nan
     friedman_p: float = math.nan
     friedman_note: str = ""
+    kendall_w: float = math.nan
     pairs: list[PairTest] = field(default_factory=list)
     note: str = ""
 
@@ -102,13 +120,19 @@ def compare_conditions(measure: str, values: dict[tuple[str, str], list[float]],
         res.note = f"{n} subject{'s' if n != 1 else ''} with every condition: no test possible"
         return res
     if len(conditions) >= 3:
-        try:
-            f = stats.friedmanchisquare(*[table[:, j] for j in range(len(conditions))])
-            res.friedman_statistic, res.friedman_p = float(f.statistic), float(f.pvalue)
-        except ValueError as exc:
-            res.friedman_note = str(exc)
-        if math.isnan(res.friedman_p) and not res.friedman_note:
-            res.friedman_note = "all values tied"
+        if np.all(np.ptp(table, axis=1) == 0):
+            res.friedman_note = "all values tied within every subject: no test"
+        else:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    f = stats.friedmanchisquare(*[table[:, j] for j in range(len(conditions))])
+                res.friedman_statistic, res.friedman_p = float(f.statistic), float(f.pvalue)
+                res.kendall_w = kendall_w(res.friedman_statistic, n, len(conditions))
+            except ValueError as exc:
+                res.friedman_note = str(exc)
+            if math.isnan(res.friedman_p) and not res.friedman_note:
+                res.friedman_note = "all values tied"
     else:
         res.friedman_note = "two conditions: the Wilcoxon test below is the comparison"
     for i in range(len(conditions)):
@@ -117,9 +141,16 @@ def compare_conditions(measure: str, values: dict[tuple[str, str], list[float]],
             pair = PairTest(conditions[i], conditions[j], n, float(np.median(d)), math.nan, math.nan)
             if np.allclose(d, 0.0):
                 pair.note = "no difference in any subject"
+                pair.rank_biserial, pair.ci_low, pair.ci_high = 0.0, 0.0, 0.0
             else:
-                w = stats.wilcoxon(table[:, i], table[:, j], zero_method="wilcox", alternative="two-sided")
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    w = stats.wilcoxon(table[:, i], table[:, j], zero_method="wilcox", alternative="two-sided")
                 pair.statistic, pair.p = float(w.statistic), float(w.pvalue)
+                if any("ties" in str(c.message) or "zero" in str(c.message) for c in caught):
+                    pair.note = "ties or zero differences: normal approximation"
+                pair.rank_biserial = rank_biserial(d)
+                pair.ci_low, pair.ci_high = bootstrap_median_ci(d)
             res.pairs.append(pair)
     for pair, adjusted in zip(res.pairs, holm([p.p for p in res.pairs])):
         pair.p_holm = adjusted
@@ -127,6 +158,40 @@ def compare_conditions(measure: str, values: dict[tuple[str, str], list[float]],
         res.note = (f"with {n} subjects a two-sided Wilcoxon test cannot give p < {2 / 2 ** n:.3g}: "
                     "these tests cannot show a difference at α = 0.05; the figures and medians are what to read")
     return res
+
+
+def kendall_w(friedman_chi2: float, subjects: int, conditions: int) -> float:
+    """Kendall's coefficient of concordance from the Friedman statistic."""
+    return float(friedman_chi2 / (subjects * (conditions - 1))) if subjects and conditions > 1 else math.nan
+
+
+def rank_biserial(differences: np.ndarray) -> float:
+    """Matched-pairs rank-biserial r: (T⁺ − T⁻) / (T⁺ + T⁻) over the non-zero differences."""
+    d = np.asarray(differences, float)
+    d = d[d != 0]
+    if not len(d):
+        return 0.0
+    ranks = stats.rankdata(np.abs(d))
+    plus, minus = ranks[d > 0].sum(), ranks[d < 0].sum()
+    return float((plus - minus) / (plus + minus))
+
+
+def bootstrap_median_ci(differences: np.ndarray, confidence: float = 0.95) -> tuple[float, float]:
+    """Bootstrap CI of the median paired difference (BCa, percentile where BCa is undefined); NaN
+    for fewer than 3 subjects. Seeded: the same differences give the same interval."""
+    d = np.asarray(differences, float)
+    if len(d) < 3:
+        return math.nan, math.nan
+    if np.ptp(d) == 0:
+        return float(d[0]), float(d[0])
+    for method in ("BCa", "percentile"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ci = stats.bootstrap((d,), np.median, confidence_level=confidence, n_resamples=BOOTSTRAP_RESAMPLES,
+                                 method=method, rng=np.random.default_rng(BOOTSTRAP_SEED)).confidence_interval
+        if np.isfinite(ci.low) and np.isfinite(ci.high):
+            return float(ci.low), float(ci.high)
+    return math.nan, math.nan
 
 
 def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:

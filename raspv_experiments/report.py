@@ -6,9 +6,18 @@ and of sweeps alike). Out come, in ``-o OUT``:
 - ``trials.csv``   one row per trial record (tidy: one observation per row, one variable per
                    column; ``status`` says completed/skipped/repeated/interrupted, ``practice``
                    marks practice trials — the figures and tests use completed non-practice ones);
-- ``report.html``  per-condition summary, figures (``figures/*.png`` and ``*.pdf``), repeated-
-                   measures statistics with their assumptions (:mod:`raspv_experiments.repeated_measures`),
-                   and where the data came from (sessions, software versions).
+- ``report.html``  warnings (a baseline that never succeeds, pooled protocols), per-condition
+                   summary, per-subject table, figures (``figures/*.png`` and ``*.pdf``), completion
+                   times with the time limit as censoring (Kaplan–Meier, log-rank;
+                   :mod:`raspv_experiments.survival`), repeated-measures statistics with effect sizes
+                   and bootstrap intervals and their assumptions
+                   (:mod:`raspv_experiments.repeated_measures`), sweep factors' main effects, what the
+                   display showed (share of frames in each trial's own representation), and where the
+                   data came from (sessions, software versions).
+
+Sessions of different protocols (a different name or file content) are not pooled unless asked
+(``pool=True``, ``--pool``): the report refuses, naming them. Pooled, a subject is
+``protocol/subject``, so two protocols' S01 stay two subjects.
 """
 from __future__ import annotations
 
@@ -21,13 +30,16 @@ from typing import Any
 
 import numpy as np
 
-from raspv_experiments.repeated_measures import ASSUMPTIONS, MeasureTests, compare_conditions
+from raspv_common.shown_share import DEFAULT_THRESHOLD
+from raspv_experiments import report_sections as sections
+from raspv_experiments.repeated_measures import ASSUMPTIONS, compare_conditions
 from raspv_experiments.session import read_jsonl
 
 COLUMNS = ["protocol", "subject", "condition", "task", "block", "index", "repetition", "practice", "attempt", "status",
            "outcome", "success", "completion_time_s", "duration_s", "time_limit_s", "path_length_m", "shortest_path_m",
            "path_efficiency", "collisions", "collided_with", "min_clearance_m", "head_rotation_deg",
-           "head_rotation_deg_per_s", "world", "policy", "session", "run_dir"]
+           "head_rotation_deg_per_s", "phosphenes_shown", "device", "own_share", "fallback_frames", "world", "policy",
+           "session", "run_dir"]
 MEASURES = [("completion_time_s", "completion time [s]", False), ("collisions", "collisions", False),
             ("path_efficiency", "path efficiency", False), ("min_clearance_m", "minimum clearance [m]", False),
             ("head_rotation_deg_per_s", "head rotation [deg/s]", False), ("success", "success rate", True)]
@@ -56,13 +68,50 @@ def find_records(dirs: list[Path]) -> tuple[list[dict[str, Any]], list[dict[str,
                 except json.JSONDecodeError:
                     info = {}
             sessions.append({"folder": str(f.parent), "trials": len(recs), **{k: info.get(k) for k in
-                             ("protocol", "subject", "subject_kind", "policy", "created", "software", "protocol_sha256")}})
+                             ("protocol", "subject", "subject_kind", "policy", "created", "software", "protocol_sha256",
+                              "factors")}})
     if not records:
         raise ReportError(f"no trial records (trials.jsonl) under {', '.join(map(str, dirs))}")
     return records, sessions
 
 
-def tidy_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def protocols_of(records: list[dict[str, Any]], sessions: list[dict[str, Any]]) -> dict[str, set[str]]:
+    """Protocol name → the sha256 prefixes of its files among the sessions (a name run from two
+    different files is two protocols)."""
+    out: dict[str, set[str]] = {}
+    for s in sessions:
+        if s.get("protocol"):
+            out.setdefault(str(s["protocol"]), set()).add(str(s.get("protocol_sha256") or "")[:12])
+    for r in records:
+        out.setdefault(str(r.get("protocol")), set())
+    return out
+
+
+def check_pooling(records: list[dict[str, Any]], sessions: list[dict[str, Any]], pool: bool) -> list[str]:
+    """The protocols pooled (empty: one protocol); ReportError when there are several and not ``pool``."""
+    protocols = protocols_of(records, sessions)
+    variants = sum(max(1, len(v)) for v in protocols.values())
+    if variants <= 1:
+        return []
+    names = [f"{n} (file {h})" if h else n for n, hs in sorted(protocols.items()) for h in (sorted(hs) or [""])]
+    if not pool:
+        raise ReportError(f"the folders hold sessions of {variants} different protocols: {'; '.join(names)}. Report "
+                          "each on its own, or pass --pool to pool them (subjects are then protocol/subject)")
+    return names
+
+
+def pooled_labels(sessions: list[dict[str, Any]]) -> dict[str, str]:
+    """Session folder → the protocol's label when pooling: its name, plus the file's sha256 prefix
+    when one name was run from several files."""
+    shas: dict[str, set[str]] = {}
+    for s in sessions:
+        shas.setdefault(str(s.get("protocol")), set()).add(str(s.get("protocol_sha256") or "")[:8])
+    return {s["folder"]: (f"{s.get('protocol')}@{str(s.get('protocol_sha256') or '')[:8]}"
+                          if len(shas[str(s.get("protocol"))]) > 1 else str(s.get("protocol"))) for s in sessions}
+
+
+def tidy_rows(records: list[dict[str, Any]], pooled: dict[str, str] | None = None) -> list[dict[str, Any]]:
+    """One row per record; ``pooled`` (session folder → protocol label): subjects become label/subject."""
     rows = []
     for r in records:
         m = r.get("metrics") or {}
@@ -73,6 +122,17 @@ def tidy_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                   "path_efficiency", "collisions", "min_clearance_m", "head_rotation_deg", "head_rotation_deg_per_s"):
             row[k] = m.get(k)
         row["collided_with"] = ";".join(m.get("collided_with", []))
+        if pooled is not None:
+            row["subject"] = f"{pooled.get(str(r.get('session')), r.get('protocol'))}/{r.get('subject')}"
+        d = r.get("display") or {}
+        row["phosphenes_shown"] = d.get("phosphenes_shown")
+        row["device"] = d.get("device")
+        row["own_share"] = d.get("own_share")
+        row["fallbacks"] = d.get("fallbacks") or {}
+        row["fallback_frames"] = (d.get("frames", 0) - d.get("own_frames", 0)) if "own_share" in d else None
+        row["factors"] = r.get("factors") or {}
+        for k, v in row["factors"].items():
+            row[k] = v
         row["trajectory"] = r.get("trajectory")
         row["start"] = r.get("start")
         row["goal"] = r.get("goal")
@@ -81,25 +141,19 @@ def tidy_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return rows
 
 
-def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
+def write_csv(rows: list[dict[str, Any]], path: Path, factors: list[str] = ()) -> None:
+    """The tidy CSV: a column per metric and, for sweeps, per factor (after condition)."""
+    columns = COLUMNS[:3] + list(factors) + COLUMNS[3:]
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
+        w = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
         w.writeheader()
         for r in rows:
             w.writerow({k: ("" if r.get(k) is None or (isinstance(r.get(k), float) and math.isnan(r[k])) else r[k])
-                        for k in COLUMNS})
+                        for k in columns})
 
 
 def analysed(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [r for r in rows if r["status"] == "completed" and not r["practice"]]
-
-
-def _fmt(v: Any, digits: int = 2) -> str:
-    if v is None or (isinstance(v, float) and math.isnan(v)):
-        return "–"
-    if isinstance(v, float):
-        return f"{v:.{digits}g}" if abs(v) < 1e-2 or abs(v) >= 1e4 else f"{v:.{digits}f}"
-    return html.escape(str(v))
 
 
 def _median_iqr(values: list[float]) -> str:
@@ -126,40 +180,24 @@ def summary_table(rows: list[dict[str, Any]], conditions: list[str]) -> str:
             "range] over trials; completed, non-practice trials only.</p>")
 
 
-def stats_section(tests: list[MeasureTests]) -> str:
-    parts = []
-    for t in tests:
-        parts.append(f"<h3>{html.escape(t.measure)}</h3>")
-        n = len(t.subjects)
-        parts.append(f"<p>{n} subject{'' if n == 1 else 's'} with every condition.")
-        if not math.isnan(t.friedman_p):
-            parts.append(f" Friedman χ²({len(t.conditions) - 1}) = {t.friedman_statistic:.2f}, p = {t.friedman_p:.3g}.")
-        elif t.friedman_note:
-            parts.append(f" Friedman: {html.escape(t.friedman_note)}.")
-        parts.append("</p>")
-        if t.pairs:
-            parts.append("<table class='stats'><tr><th>pair</th><th>n</th><th>median difference</th><th>W</th>"
-                         "<th>p</th><th>p (Holm)</th><th></th></tr>")
-            for p in t.pairs:
-                parts.append(f"<tr><td>{html.escape(p.a)} − {html.escape(p.b)}</td><td>{p.n}</td>"
-                             f"<td>{_fmt(p.median_difference, 3)}</td><td>{_fmt(p.statistic, 3)}</td>"
-                             f"<td>{_fmt(p.p, 3)}</td><td>{_fmt(p.p_holm, 3)}</td><td>{html.escape(p.note)}</td></tr>")
-            parts.append("</table>")
-        if t.note:
-            parts.append(f"<p class='note'>{html.escape(t.note)}</p>")
-    return "".join(parts)
-
-
-def build_report(dirs: list[Path], out: Path, title: str | None = None) -> Path:
-    """Write trials.csv, figures/ and report.html into ``out``; returns the HTML path."""
+def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bool = False,
+                 share_threshold: float = DEFAULT_THRESHOLD) -> Path:
+    """Write trials.csv, figures/ and report.html into ``out``; returns the HTML path. Trials
+    whose share of frames in their own representation is below ``share_threshold`` are flagged."""
     from raspv_experiments import report_figures as figs
     from raspv_experiments.world_geometry import world_geometry
 
     records, sessions = find_records(dirs)
-    rows = tidy_rows(records)
+    pooled = check_pooling(records, sessions, pool)
+    rows = tidy_rows(records, pooled_labels(sessions) if pooled else None)
+    declared: dict[str, list[str]] = {}
+    for s in sessions:
+        for k, v in (s.get("factors") or {}).items():
+            declared.setdefault(k, list(v))
+    factors = sections.factors_of(rows, declared)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    write_csv(rows, out / "trials.csv")
+    write_csv(rows, out / "trials.csv", list(factors))
     data = analysed(rows)
     conditions = list(dict.fromkeys(r["condition"] for r in rows))
     tasks = list(dict.fromkeys(r["task"] for r in rows))
@@ -171,10 +209,19 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None) -> Path:
     figures.append((figs.box_strip(data, conditions, "collisions", "collisions per trial", fig_dir, "collisions",
                                    "Collisions per trial"), "Collisions per trial and condition."))
     figures.append((figs.success_rates(data, conditions, fig_dir), "Success rate per condition, 95 % Wilson interval."))
-    figures.append((figs.box_strip([r for r in data if r["success"]], conditions, "path_efficiency",
+    succeeded = [r for r in data if r["success"]]
+    figures.append((figs.box_strip(succeeded, conditions, "path_efficiency",
                                    "path efficiency (shortest / walked)", fig_dir, "path_efficiency",
                                    "Path efficiency of successful trials"),
-                    "Planner's shortest path to the goal region / path walked, successful trials."))
+                    "Planner's shortest path to the goal region / path walked, successful trials."
+                    + ("" if succeeded else " Empty: no trial reached the goal, so no path efficiency is defined.")))
+    survival_html, curves = sections.survival_section(data, conditions)
+    figures.append((figs.kaplan_meier_curves(curves, fig_dir),
+                    "Fraction of trials not yet at the goal over time (Kaplan–Meier; trials that ran out of time are "
+                    "censored at the limit)."))
+    if factors:
+        figures.append((figs.main_effects(data, factors, fig_dir),
+                        "Success rate at each level of each sweep factor, levels in the sweep's order."))
     for task in tasks:
         world = next((r["world"] for r in rows if r["task"] == task and r.get("world")), None)
         try:
@@ -194,14 +241,18 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None) -> Path:
             if isinstance(v, (int, float)):
                 values.setdefault((r["subject"], r["condition"]), []).append(float(v))
         tests.append(compare_conditions(label, values, conditions, proportion))
+    extra = {"warnings": sections.warnings_for(data, conditions, pooled),
+             "subjects": sections.per_subject_table(data, conditions), "survival": survival_html,
+             "factors": sections.main_effects_table(data, factors) if factors else "",
+             "display": sections.display_section(data, conditions, share_threshold)}
     page = _html(title or ", ".join(sorted({str(r["protocol"]) for r in rows})), rows, data, conditions, figures,
-                 tests, sessions)
+                 tests, sessions, extra)
     path = out / "report.html"
     path.write_text(page, encoding="utf-8")
     return path
 
 
-def _html(title, rows, data, conditions, figures, tests, sessions) -> str:
+def _html(title, rows, data, conditions, figures, tests, sessions, extra) -> str:
     statuses: dict[str, int] = {}
     for r in rows:
         statuses[r["status"]] = statuses.get(r["status"], 0) + 1
@@ -215,6 +266,8 @@ def _html(title, rows, data, conditions, figures, tests, sessions) -> str:
         f"{html.escape(str((s.get('software') or {}).get('git_commit', ''))[:10])}</td>"
         f"<td>{html.escape(s['folder'])}</td></tr>" for s in sessions)
     assumptions = "".join(f"<li>{html.escape(a)}</li>" for a in ASSUMPTIONS)
+    warn = "".join(f"<p class='warning'>{html.escape(w)}</p>" for w in extra["warnings"])
+    factors = f"<h2>Sweep factors (main effects)</h2>{extra['factors']}" if extra["factors"] else ""
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Experiment report: {html.escape(title)}</title>
 <style>
@@ -224,17 +277,26 @@ td, th {{ border: 1px solid #ccc; padding: 3px 8px; text-align: left; }}
 figure {{ display: inline-block; margin: 0.5em; vertical-align: top; max-width: 100%; }}
 figure img {{ max-width: 100%; }}
 figcaption, .note {{ font-size: 0.85em; color: #555; }}
+.warning {{ background: #fff4e0; border-left: 4px solid #e69500; padding: 0.4em 0.8em; }}
 </style></head><body>
 <h1>Experiment report: {html.escape(title)}</h1>
 <p id="counts">{len(rows)} trial records ({counts}) from {len(sessions)} session(s); {len(data)} completed non-practice
 trials in {len(conditions)} conditions are analysed. Data: <a href="trials.csv">trials.csv</a> (one row per trial).</p>
+<div id="warnings">{warn}</div>
 <h2>Summary per condition</h2>
 {summary_table(data, conditions)}
+<h2>Per subject</h2>
+{extra["subjects"]}
 <h2>Figures</h2>
 <div id="figures">{fig_html}</div>
+<h2>Completion time with the time limit as censoring</h2>
+<div id="survival">{extra["survival"]}</div>
 <h2>Statistics (repeated measures)</h2>
 <ul class="assumptions">{assumptions}</ul>
-<div id="stats">{stats_section(tests)}</div>
+<div id="stats">{sections.stats_section(tests)}</div>
+{factors}
+<h2>What the display showed</h2>
+<div id="display">{extra["display"]}</div>
 <h2>Sessions</h2>
 <table><tr><th>subject</th><th>protocol</th><th>records</th><th>subject kind</th><th>software</th><th>folder</th></tr>
 {sess_rows}</table>

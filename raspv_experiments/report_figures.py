@@ -141,3 +141,47 @@ def trajectories(rows, conditions, task: str, out: Path, geometry=None) -> str:
         axes[k // cols][k % cols].axis("off")
     fig.suptitle(f"Trajectories, task {task} (x, y in m; ▲ start, ○ goal, × end; green: reached)", fontsize=9)
     return _save(fig, out, f"trajectories-{task}")
+
+
+def kaplan_meier_curves(curves: dict, out: Path) -> str:
+    """Fraction of trials not yet at the goal over time per condition (Kaplan–Meier, censored at
+    the time limit; + marks censored trials' ends, shaded: 95 % band)."""
+    fig, ax = plt.subplots(figsize=(3.8, 2.8))
+    for i, (c, k) in enumerate(curves.items()):
+        if not k.n:
+            continue
+        t = np.concatenate([[0.0], k.times])
+        s = np.concatenate([[1.0], k.still_going])
+        color = COLORS[i % 10]
+        ax.step(t, s, where="post", color=color, lw=1.5, label=f"{c} ({k.events}/{k.n})")
+        if len(k.low) == len(k.times) and k.events:
+            ax.fill_between(t, np.concatenate([[1.0], k.low]), np.concatenate([[1.0], k.high]), step="post",
+                            color=color, alpha=0.12, lw=0)
+    ax.set_ylim(-0.02, 1.05)
+    ax.set_xlabel("time since the start [s]")
+    ax.set_ylabel("not yet at the goal")
+    ax.legend(fontsize=7, frameon=False)
+    ax.set_title("Completion time, time limit as censoring (Kaplan–Meier)", fontsize=9)
+    return _save(fig, out, "kaplan_meier")
+
+
+def main_effects(rows, factors: dict[str, list[str]], out: Path) -> str:
+    """Per sweep factor, the success rate (95 % Wilson) at each level, levels in their order."""
+    n = max(1, len(factors))
+    fig, axes = plt.subplots(1, n, figsize=(2.6 * n + 0.6, 2.6), squeeze=False, sharey=True)
+    for ax, (f, levels) in zip(axes[0], factors.items()):
+        rates, lows, highs = [], [], []
+        for level in levels:
+            t = [r for r in rows if str((r.get("factors") or {}).get(f)) == level]
+            k = sum(1 for r in t if r.get("success"))
+            rate = k / len(t) if t else math.nan
+            lo, hi = wilson_interval(k, len(t))
+            rates.append(rate), lows.append(rate - lo if t else 0), highs.append(hi - rate if t else 0)
+        x = np.arange(len(levels))
+        ax.errorbar(x, rates, yerr=[lows, highs], fmt="o-", color=COLORS[0], capsize=3, lw=1.2, ms=4)
+        ax.set_xticks(x, levels, rotation=20 if len(levels) > 3 else 0, ha="right" if len(levels) > 3 else "center")
+        ax.set_xlabel(f)
+        ax.set_ylim(-0.05, 1.08)
+    axes[0][0].set_ylabel("success rate (95 % Wilson CI)")
+    fig.suptitle("Main effects of the sweep's factors (each level pooled over the others)", fontsize=9)
+    return _save(fig, out, "main_effects")

@@ -130,7 +130,7 @@ class SessionFolder:
         info = {"protocol": protocol.name, "protocol_file": str(protocol.path), "protocol_sha256": protocol.sha256,
                 "subject": subject, "created": now_iso(), "software": software_version(),
                 "graph": [{"name": n.name, "kind": n.kind, "params": n.params} for n in protocol.graph.nodes],
-                "conditions": {c.name: c.params for c in protocol.conditions},
+                "conditions": {c.name: c.params for c in protocol.conditions}, "factors": protocol.factors,
                 "plan": [asdict(t) for t in plan], **extra}
         tmp = self.info_path.with_suffix(".tmp")
         tmp.write_text(json.dumps(info, indent=2, default=_jsonable) + "\n")

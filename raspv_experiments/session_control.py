@@ -83,7 +83,7 @@ class TrialMonitor:
         if self.armed and x is not None and y is not None and \
                 math.hypot(x - self.goal_x, y - self.goal_y) <= self.goal_radius:
             self.outcome = "goal"
-        elif self.elapsed >= self.time_limit:
+        elif self.elapsed >= self.time_limit - 1e-6:        # sim time sums steps: 39.99999… is the limit
             self.outcome = "time_limit"
         return self.outcome
 
@@ -109,6 +109,22 @@ class ViewState:
     collisions: int = 0
     last_hit: str = ""
     message: str = ""
+    started: float | None = None        # monotonic time [s] the run started
+    done_before: int = 0                # trials done before this run (resumed sessions)
+    now: float | None = None            # monotonic time of this view (None: time.monotonic())
+
+
+def elapsed_and_eta(done: int, total: int, elapsed: float) -> str:
+    """``elapsed 3:12, ETA 5:40`` from the units done in ``elapsed`` seconds (no ETA before the first)."""
+    text = f"elapsed {_clock(elapsed)}"
+    if done > 0 and total > done:
+        text += f", ETA {_clock(elapsed / done * (total - done))}"
+    return text
+
+
+def _clock(seconds: float) -> str:
+    s = int(round(max(0.0, seconds)))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
 def progress_bar(done: int, total: int, width: int = 20) -> str:
@@ -118,7 +134,12 @@ def progress_bar(done: int, total: int, width: int = 20) -> str:
 
 def status_line(v: ViewState, width: int = 100) -> str:
     """One line: progress over the session, the trial, its time, collisions, the last message."""
+    import time
+
     parts = [f"{progress_bar(v.done, v.total)} {v.done}/{v.total}"]
+    if v.started is not None:
+        now = time.monotonic() if v.now is None else v.now
+        parts[0] += " " + elapsed_and_eta(v.done - v.done_before, v.total - v.done_before, now - v.started)
     if v.index:
         parts.append(f"trial {v.index}: {v.label}")
     parts.append(v.phase)

@@ -6,6 +6,13 @@ reached through :class:`raspv_experiments.runner_node.GraphClient`).
 Humans walk in real time; scripted subjects run in **lockstep** (the simulator steps each time
 the subject answered the last frame, in simulation time, as fast as the machine allows) and
 **headless** (the spv node publishes each frame at once, no display loop, no headset bridge).
+
+Scripted sessions in lockstep **repeat exactly**: the simulator holds between trials and on the
+frame a trial ends (``lockstep_hold``), a planner answers every frame after its path is out
+(``lockstep``), each condition runs in a graph started with its parameters (no background
+rebuild racing the first frames: the graph restarts when the world or the condition changes),
+and the subject starts each trial with a fresh policy seeded by its number and the trial. The
+same protocol and subject give the same trial records.
 """
 from __future__ import annotations
 
@@ -23,6 +30,7 @@ from typing import Any, Callable
 
 from raspv_bringup.graph import Graph, NodeEntry
 from raspv_bringup.supervisor import Supervisor, _die_with_parent
+from raspv_common.shown_share import ShownFrame, shown_share
 from raspv_experiments.design import PlannedTrial, plan_session, subject_number
 from raspv_experiments.metrics import trajectory_record, trial_metrics
 from raspv_experiments.protocol import Protocol, Task
@@ -33,6 +41,7 @@ from raspv_experiments.world_geometry import world_geometry
 
 STALL_S = 60.0            # wall seconds without the simulation clock advancing: the graph is stuck
 START_TIMEOUT_S = 180.0   # wall seconds for a graph to come up
+BAG_START_S = 60.0        # wall seconds for a trial's bag recorder to subscribe
 
 
 @dataclass
@@ -53,11 +62,19 @@ class RunOptions:
     def scripted(self) -> bool:
         return self.policy is not None
 
+    @property
+    def exact(self) -> bool:
+        """Scripted in lockstep: the session repeats exactly (see the module docstring)."""
+        return self.scripted and (self.lockstep is None or self.lockstep)
+
 
 def parse_subject(text: str) -> tuple[str, str | None, int]:
-    """``S07`` → (S07, None, 7); ``scripted:follow_path[:3]`` → (scripted-follow_path-3, follow_path, 3)."""
-    from raspv_experiments.subject_params import POLICY_NAMES
+    """``S07`` → (S07, None, 7); ``scripted:follow_path[:3]`` → (scripted-follow_path-3, follow_path, 3);
+    ``scripted`` alone is the default virtual patient, ``scripted:navigate:1``."""
+    from raspv_experiments.subject_params import DEFAULT_POLICY, POLICY_NAMES
 
+    if text == "scripted":
+        text = f"scripted:{DEFAULT_POLICY}"
     if text.startswith("scripted:"):
         parts = text.split(":")
         policy = parts[1] if len(parts) > 1 else ""
@@ -76,26 +93,42 @@ def parse_subject(text: str) -> tuple[str, str | None, int]:
     return text, None, subject_number(text)
 
 
-def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int) -> Graph:
+def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int,
+                  condition: str | None = None) -> Graph:
     """The protocol's graph for one world, adapted to the subject: the task's world in the
     simulator (and the planner), no run log (trials log themselves), and for scripted subjects
     lockstep stepping, sim time everywhere, a headless spv node, no headset bridge, and the
-    subject node."""
+    subject node with its ability (:mod:`raspv_experiments.subject_ability`). With
+    ``condition`` (scripted, lockstep) the condition's parameters are the nodes' own and the
+    simulator holds between trials, the planner answering every frame."""
+    from raspv_experiments.subject_ability import subject_ability
+
     g = copy.deepcopy(protocol.graph)
     lockstep = options.scripted if options.lockstep is None else options.lockstep
     headless = options.scripted if options.headless is None else options.headless
+    exact = lockstep and options.scripted and any(n.kind == "spv" for n in g.nodes)
+    baked = protocol.trial_params(condition) if condition is not None else {}
+    planners = [n.name for n in g.nodes if n.kind == "planner"]
     nodes: list[NodeEntry] = []
     for n in g.nodes:
         if headless and n.kind == "bridge":
             continue
+        n.params.update(baked.get(n.name, {}))
         if n.kind == "sim":
             n.params.update(world=world, log_dir="", log_rate=protocol.record.trajectory_rate)
             if lockstep:
                 n.params["step_mode"] = "lockstep"
+            if exact:
+                n.params["lockstep_hold"] = True
+                if planners:
+                    n.params["lockstep_participants"] = planners
         elif lockstep:
             n.params["use_sim_time"] = True
-        if n.kind == "planner" and not n.params.get("map"):
-            n.params["world"] = world
+        if n.kind == "planner":
+            if not n.params.get("map"):
+                n.params["world"] = world
+            if exact:
+                n.params["lockstep"] = True
         if n.kind == "spv" and headless:
             n.params["headless"] = True
         nodes.append(n)
@@ -104,7 +137,7 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
     if options.scripted:
         if not any(n.kind == "spv" for n in nodes):
             raise SessionError(f"{protocol.path}: graph: a scripted subject needs an 'spv' node (it sees /spv/frame)")
-        params = {"policy": options.policy, "seed": seed, **options.subject_params}
+        params = {**subject_ability(seed), "policy": options.policy, "seed": seed, **options.subject_params}
         if lockstep:
             params["use_sim_time"] = True
         nodes.append(NodeEntry("subject", "subject", False, params))
@@ -112,15 +145,17 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
     return g
 
 
-def _world_groups(protocol: Protocol, trials: list[PlannedTrial]) -> list[tuple[str, list[PlannedTrial]]]:
-    """Consecutive trials in the same world (the graph restarts when the world changes)."""
-    groups: list[tuple[str, list[PlannedTrial]]] = []
+def _world_groups(protocol: Protocol, trials: list[PlannedTrial],
+                  by_condition: bool = False) -> list[tuple[str, str | None, list[PlannedTrial]]]:
+    """Consecutive trials in the same world (and condition, ``by_condition``): the graph restarts
+    between groups. (world, condition or None, trials) each."""
+    groups: list[tuple[str, str | None, list[PlannedTrial]]] = []
     for t in trials:
-        world = protocol.task(t.task).world
-        if groups and groups[-1][0] == world:
-            groups[-1][1].append(t)
+        key = (protocol.task(t.task).world, t.condition if by_condition else None)
+        if groups and groups[-1][:2] == key:
+            groups[-1][2].append(t)
         else:
-            groups.append((world, [t]))
+            groups.append((*key, [t]))
     return groups
 
 
@@ -160,7 +195,8 @@ class SessionRunner:
                      + (f", next: trial {todo[0].index} ({todo[0].label})" if todo else ""))
             return todo
         if self.options.resume:
-            self.say(f"no session in {f.root} yet: starting it")
+            raise SessionError(f"--resume: there is no session to resume in {f.root} (no session.json); "
+                               "run without --resume to start it")
         f.create(self.protocol, self.subject, self.plan,
                  {"subject_kind": "scripted" if self.options.scripted else "person", "policy": self.options.policy,
                   "subject_params": self.options.subject_params, "argv": sys.argv})
@@ -170,23 +206,30 @@ class SessionRunner:
     def run(self) -> int:
         todo = self.prepare()
         self.state.total = len(self.plan)
-        self.state.done = len(self.plan) - len(todo)
+        self.state.done = self.state.done_before = len(self.plan) - len(todo)
+        self.state.started = time.monotonic()
         if not todo:
             self.say(f"session complete: {self.folder.trials_path}")
             return 0
+        current: PlannedTrial | None = None
         try:
-            for world, trials in _world_groups(self.protocol, todo):
-                self._start_graph(world)
+            for world, condition, trials in _world_groups(self.protocol, todo, self.options.exact):
+                self._start_graph(world, condition)
                 try:
                     for trial in trials:
+                        current = trial
                         if self._run_planned(trial) == "quit":
                             self.folder.event("quit", at_trial=trial.index)
                             self.say(f"stopped at trial {trial.index}; continue with --resume")
+                            self.show(phase="stopped")
                             return 3
                 finally:
                     self._stop_graph()
-        finally:
-            self.show(phase="finished")
+        except KeyboardInterrupt:          # SIGINT/SIGTERM: recorded as a quit, resumable
+            self.folder.event("quit", at_trial=current.index if current else None, by="signal")
+            self.show(phase="stopped", message="interrupted; continue with --resume")
+            raise
+        self.show(phase="finished")
         self.folder.event("finished")
         self.say(f"session complete: {len(self.plan)} trials in {self.folder.trials_path}")
         return 0
@@ -198,11 +241,12 @@ class SessionRunner:
         self.view.show(self.state)
 
     # -- graph ------------------------------------------------------------------------------
-    def _start_graph(self, world: str) -> None:
-        graph = session_graph(self.protocol, world, self.options, self.number)
+    def _start_graph(self, world: str, condition: str | None = None) -> None:
+        graph = session_graph(self.protocol, world, self.options, self.number, condition)
         self.folder.root.mkdir(parents=True, exist_ok=True)
         self._graph_log = open(self.folder.root / "graph.log", "a", buffering=1)
-        self._graph_log.write(f"--- {now_iso()}: graph for world {world}\n")
+        self._graph_log.write(f"--- {now_iso()}: graph for world {world}"
+                              + (f", condition {condition}" if condition else "") + "\n")
         self.supervisor = Supervisor(graph, out=self._graph_log)
         self.supervisor.start()             # main thread: the nodes die with this process
         self._sup_thread = threading.Thread(target=self.supervisor.run, args=(lambda: not self.options.stop.is_set(),),
@@ -213,6 +257,14 @@ class SessionRunner:
             self.client = GraphClient()
         controlled = [n for n in self.protocol.controlled if any(e.name == n for e in graph.nodes)]
         self.client.wait_ready(controlled, START_TIMEOUT_S, alive=self._sup_thread.is_alive)
+        if self.options.exact:            # every frame of the first trial must reach every node
+            from raspv_common import topics
+
+            planners = sum(1 for n in graph.nodes if n.kind == "planner")
+            self.client.wait_connected({topics.SPV_FRAME: (1, 2 + planners), topics.SPV_MAP: (1, 2),
+                                        topics.SIM_LOCKSTEP: (1 + planners, 1), topics.HEAD_ORIENTATION: (1, 1),
+                                        topics.EXPERIMENT_INSTRUCTIONS: (1, 1)},
+                                       START_TIMEOUT_S, alive=self._sup_thread.is_alive)
 
     def _stop_graph(self) -> None:
         if self.supervisor is not None:
@@ -245,7 +297,10 @@ class SessionRunner:
                 return "quit"
 
     def _apply_condition(self, trial: PlannedTrial, task: Task) -> dict[str, dict[str, Any]]:
+        """Set the condition's parameters (scripted in lockstep: the graph started with them) and
+        point the planners at the goal; returns every parameter of the trial."""
         params = self.protocol.trial_params(trial.condition)
+        to_set = {} if self.options.exact else copy.deepcopy(params)
         planners = [n.name for n in self.protocol.graph.nodes if n.kind == "planner"]
         if planners:        # the planner guides to where the body can stand in the goal region
             import numpy as np
@@ -253,9 +308,11 @@ class SessionRunner:
             g = np.array([task.goal.x, task.goal.y])
             target = world_geometry(task.world).reachable_point(g, task.goal.radius)
             target = g if target is None else target
+            goal = {"goal": [float(target[0]), float(target[1])], "goal_name": ""}
             for name in planners:
-                params.setdefault(name, {}).update(goal=[float(target[0]), float(target[1])], goal_name="")
-        for node, values in params.items():
+                params.setdefault(name, {}).update(goal)
+                to_set.setdefault(name, {}).update(goal)
+        for node, values in to_set.items():
             self.client.set_params(node, values)
         return params
 
@@ -292,25 +349,40 @@ class SessionRunner:
                 return "quit"
         self.show(phase="instructions")
         title = f"Trial {trial.index} of {len(self.plan)}" + (" (practice)" if trial.practice else "")
-        if not self._wait_start({"id": key, "trial": trial.index, "title": title,
-                                 "text": task.instructions or f"Reach the goal ({task.goal.label})."}):
+        info = {"id": key, "trial": trial.index, "title": title,
+                "text": task.instructions or f"Reach the goal ({task.goal.label})."}
+        if self.options.scripted:      # what the subject is told, and the frames of this trial come after
+            dx, dy = task.goal.x - task.start_x, task.goal.y - task.start_y
+            info.update(goal_from_start=[round(math.cos(yaw) * dx + math.sin(yaw) * dy, 4),
+                                         round(-math.sin(yaw) * dx + math.cos(yaw) * dy, 4)],
+                        after=self.client.state()[0] or 0.0)
+        if not self._wait_start(info):
             return "quit"
+        self.client.take_frames()
+        bag = None
+        if self.options.exact:          # lockstep trials are over in seconds: the recorder listens first
+            bag = self._start_bag(self.folder.root / "trials" / run_name)
         res = self.client.start_trial(task.start_x, task.start_y, yaw, goal,
-                                      str(self.folder.root / "trials"), run_name)
+                                      str(self.folder.root / "trials"), run_name, time_limit=task.time_limit)
         self.client.show({"id": key, "trial": trial.index, "title": title, "text": "", "waiting": False})
         run_dir, start_t = Path(res.run_dir), float(res.sim_time)
-        bag = self._start_bag(run_dir)
+        if not self.options.exact:
+            bag = self._start_bag(run_dir)
         monitor = TrialMonitor(task.goal.x, task.goal.y, task.goal.radius, task.time_limit, start_t, start_t,
                                task.start_x, task.start_y)
         request = self._monitor(monitor)
+        if self.options.exact and request is None:      # the trial's last frame reaches the display record too
+            self.client.wait_frame(min(monitor.t, start_t + task.time_limit))
         self._stop_bag(bag)
         self.client.end_trial(plot=False)
+        frames = self.client.take_frames()
         end_t = min(monitor.t, start_t + task.time_limit)      # when it ended (the sim may have stepped on)
         if self.control.paused:
             self.control.paused = False
             self.client.set_params("sim", {"paused": False})
         status = {None: "completed", "repeat": "repeated", "skip": "skipped", "quit": "interrupted"}[request]
         record = self._record(trial, task, params, status, attempt, run_dir, start_t, end_t, monitor)
+        record["display"] = self._display_record(trial, frames, start_t, end_t)
         self.folder.record(record)
         if status != "completed":
             self.folder.event(status, trial=trial.index, attempt=attempt)
@@ -357,6 +429,9 @@ class SessionRunner:
             "time_limit_s": task.time_limit, "params": params, "run_dir": str(run_dir),
             "sim_start_s": round(start_t, 4), "sim_end_s": round(end_t, 4), "finished": now_iso(),
             "policy": self.options.policy}
+        factors = self.protocol.condition(trial.condition).factors
+        if factors:
+            record["factors"] = dict(factors)
         if status == "completed":
             geometry = world_geometry(task.world)
             _, shortest = geometry.shortest_path((task.start_x, task.start_y), (task.goal.x, task.goal.y), task.goal.radius)
@@ -368,15 +443,46 @@ class SessionRunner:
             record["bag"] = str(run_dir / "bag")
         return record
 
+    def _display_record(self, trial: PlannedTrial, frames: list[ShownFrame], start_t: float,
+                        end_t: float) -> dict[str, Any]:
+        """What the subject was shown during the trial: the phosphenes of the map on display, and
+        the share of frames in the condition's own mode and overlays (:mod:`raspv_common.shown_share`)."""
+        if self.options.exact:                   # sim-time stamps: exactly the trial's frames
+            frames = [f for f in frames if start_t + 1e-6 < f.t <= end_t + 1e-6]
+        spv = next((n for n in self.protocol.graph.nodes if n.kind == "spv"), None)
+        own_mode = own_overlays = None
+        if spv is not None:
+            from raspv_bringup.registry import schema_for
+
+            defaults = schema_for("spv").defaults()
+            chosen = self.protocol.condition(trial.condition).params.get(spv.name, {})
+            own_mode = chosen.get("mode", spv.params.get("mode", defaults["mode"]))
+            own_overlays = chosen.get("overlays", spv.params.get("overlays", defaults["overlays"]))
+        share = shown_share(frames, own_mode, own_overlays, end_t=None)
+        out: dict[str, Any] = {**self.client.display_map(), **share.as_dict()}
+        return out
+
     # -- bags -------------------------------------------------------------------------------
     def _start_bag(self, run_dir: Path) -> subprocess.Popen | None:
         if not (self.options.bag if self.options.bag is not None else self.protocol.record.bag):
             return None
         cmd = [sys.executable, "-m", "raspv_bringup.cli", "bag", "record", "-o", str(run_dir / "bag"),
                *self.protocol.record.bag_topics]
+        run_dir.mkdir(parents=True, exist_ok=True)
         log = open(run_dir / "bag.log", "w")
-        return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        topics = [t for t in self.protocol.record.bag_topics if self.client.node.count_publishers(t)]
+        before = {t: self.client.node.count_subscribers(t) for t in topics}
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 env=os.environ.copy(), start_new_session=True, preexec_fn=_die_with_parent)
+        # every topic that has a publisher gets the recorder's subscription before the trial starts
+        deadline = time.monotonic() + BAG_START_S
+        while any(self.client.node.count_subscribers(t) <= n for t, n in before.items()):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                self.say(f"the bag recorder did not subscribe within {BAG_START_S:.0f} s; see {run_dir / 'bag.log'}")
+                break
+            time.sleep(0.05)
+        time.sleep(0.3)                 # its subscriptions matched on the publishers' side too
+        return proc
 
     @staticmethod
     def _stop_bag(proc: subprocess.Popen | None) -> None:

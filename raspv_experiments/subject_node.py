@@ -6,10 +6,17 @@ it holds on ``/head/orientation``, and answers the frame on ``/sim/lockstep`` (T
 stamped with the frame's source stamp) so a simulator in lockstep steps at once. It presses
 'start' when the experiment shows instructions (``/experiment/instructions`` →
 ``/experiment/response``). The policies are in :mod:`raspv_experiments.policies`.
+
+Each trial starts with a fresh policy, seeded by the subject's seed and the trial number, when
+its instructions come; the instructions of a scripted session also say where the goal is from
+the start (``goal_from_start`` [m], x ahead, y left: what a person is told) and the sim time
+``after`` which the trial's frames come (earlier frames still in flight are answered but not
+seen), so a trial's commands depend on that trial's frames only.
 """
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, TwistStamped
@@ -27,7 +34,9 @@ from raspv_sim.avatar import head_quaternion
 def policy_config(p: dict, seed: int | None = None) -> PolicyConfig:
     return PolicyConfig(max_linear=p["max_linear"], max_angular=p["max_angular"], head_pitch_deg=p["head_pitch_deg"],
                         eye_height=p["eye_height"], lookahead=p["lookahead"], bright_ratio=p["bright_ratio"],
-                        noise=p["noise"], seed=p["seed"] if seed is None else seed)
+                        noise=p["noise"], seed=p["seed"] if seed is None else seed,
+                        reaction_time_s=p["reaction_time_s"], min_brightness=p["min_brightness"],
+                        contrast_threshold=p["contrast_threshold"], perception_noise=p["perception_noise"])
 
 
 class SubjectNode(RaspvNode):
@@ -37,6 +46,8 @@ class SubjectNode(RaspvNode):
         self.policy = None
         self.trial_seed = self.params["seed"]
         self.answered_instructions = ""
+        self.goal: tuple[float, float] | None = None     # the trial's goal from its start [m] (x ahead, y left)
+        self.after = -1.0                                # frames up to this sim time are from before the trial
         self.frames = 0
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
@@ -47,16 +58,19 @@ class SubjectNode(RaspvNode):
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
         self.get_logger().info(f"scripted subject: policy {self.params['policy']}, seed {self.params['seed']}")
 
-    def on_parameters(self, changes):
+    def _new_policy(self, params: dict) -> None:
         if self.layout is not None:
-            merged = {**self.params, **changes}
-            self.policy = make_policy(merged["policy"], self.layout, policy_config(merged, self.trial_seed))
+            self.policy = make_policy(params["policy"], self.layout, policy_config(params, self.trial_seed),
+                                      goal=self.goal)
+
+    def on_parameters(self, changes):
+        self._new_policy({**self.params, **changes})
         return None
 
     def on_map(self, msg: PhospheneMap) -> None:
         self.layout = PhospheneLayout(np.asarray(msg.x, float), np.asarray(msg.y, float), int(msg.width),
                                       int(msg.height), float(msg.focal_px), int(msg.map_id))
-        self.policy = make_policy(self.params["policy"], self.layout, policy_config(self.params, self.trial_seed))
+        self._new_policy(self.params)
 
     def on_instructions(self, msg: String) -> None:
         try:
@@ -69,28 +83,36 @@ class SubjectNode(RaspvNode):
         self.answered_instructions = key
         # a new trial: the same virtual subject, its noise reseeded per trial (reproducible)
         self.trial_seed = int(self.params["seed"]) * 100_003 + int(info.get("trial", 0))
-        if self.layout is not None:
-            self.policy = make_policy(self.params["policy"], self.layout, policy_config(self.params, self.trial_seed))
+        goal = info.get("goal_from_start")
+        self.goal = (float(goal[0]), float(goal[1])) if isinstance(goal, list) and len(goal) == 2 else None
+        self.after = float(info.get("after", -1.0))
+        self._new_policy(self.params)
+        self._publish_head(math.radians(self.params["head_pitch_deg"]))     # the head it will hold, before starting
         if self.params["auto_start"]:
             self.pub_response.publish(String(data=json.dumps({"action": "start", "id": key, "by": "subject"})))
 
     def on_frame(self, msg: PhospheneFrame) -> None:
-        command = Command(0.0, 0.0, 0.0)
-        if self.policy is not None and msg.map_id == self.layout.map_id:
+        command = Command(0.0, 0.0, math.radians(self.params["head_pitch_deg"]))   # standing, head held
+        t = msg.source_stamp.sec + 1e-9 * msg.source_stamp.nanosec
+        if self.policy is not None and msg.map_id == self.layout.map_id and t > self.after + 1e-6:
             brightness = np.asarray(msg.brightness, dtype=float)
             if brightness.shape == self.layout.x.shape:
-                command = self.policy.act(brightness)
+                self.policy.show(msg.mode, msg.overlays)
+                command = self.policy.act(brightness, t)
         self.frames += 1
         twist = Twist()
         twist.linear.x, twist.angular.z = command.linear, command.angular
-        q = head_quaternion(0.0, command.head_pitch, 0.0)
-        self.pub_head.publish(QuaternionStamped(header=self.header("base"),
-                                                quaternion=Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])))
+        self._publish_head(command.head_pitch)
         self.pub_cmd.publish(twist)
         answer = TwistStamped(twist=twist)
         answer.header.stamp = msg.source_stamp
         answer.header.frame_id = "base"
         self.pub_step.publish(answer)
+
+    def _publish_head(self, pitch: float) -> None:
+        q = head_quaternion(0.0, pitch, 0.0)
+        self.pub_head.publish(QuaternionStamped(header=self.header("base"),
+                                                quaternion=Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])))
 
 
 def main(argv=None) -> None:

@@ -20,8 +20,13 @@ One job is one virtual subject's whole session (every condition, so the design s
 repeated-measures); it runs its own graph on its own ROS domain
 (:func:`raspv_experiments.domains.private_domain`). Results land as sessions in
 ``<out>/sessions/<protocol>/<subject>/`` — the same trial records as ``raspv experiment run``,
-so ``raspv experiment report <out>`` works on sweeps too. Scheduling is the executor's
-(``concurrent.futures`` or Ray); nothing here schedules.
+so ``raspv experiment report <out>`` works on sweeps too; each condition carries its level of every
+factor (``Condition.factors``, the records' ``factors``), so the report has a column per factor and
+its main effects. Scheduling is the executor's (``concurrent.futures`` or Ray); nothing here
+schedules. The driver says how many trials are done over the whole sweep, with the elapsed time
+and an ETA (:class:`SweepProgress`); ``domains`` keeps the graphs' ROS domain ids in a range.
+Scripted sessions repeat exactly (:mod:`raspv_experiments.session_runner`): the same sweep file
+gives the same trial records.
 """
 from __future__ import annotations
 
@@ -100,8 +105,9 @@ def load_sweep(path: str | Path) -> Sweep:
     pdoc = dict(pdoc)
     pdoc["name"] = doc.get("name", path.stem)
     factors = doc.get("factors")
+    condition_levels: dict[str, dict[str, str]] = {}
     if factors is not None:
-        pdoc["conditions"] = _conditions_from_factors(factors, pdoc, path, errors)
+        pdoc["conditions"] = _conditions_from_factors(factors, pdoc, path, errors, condition_levels)
     elif "conditions" in doc:
         wanted = doc["conditions"]
         have = pdoc.get("conditions") or {}
@@ -153,6 +159,11 @@ def load_sweep(path: str | Path) -> Sweep:
             task["world"] = str((ppath.parent / task["world"]).resolve())
     text = f"# sweep {path} of protocol {ppath}\n" + yaml.safe_dump(pdoc, sort_keys=False)
     protocol = parse_protocol(pdoc, path, text)
+    if isinstance(factors, dict) and factors:       # each condition's level of every factor, for the report
+        from dataclasses import replace
+
+        protocol.factors = {str(k): [_factor_label(v) for v in vals] for k, vals in factors.items()}
+        protocol.conditions = [replace(c, factors=condition_levels.get(c.name, {})) for c in protocol.conditions]
     return Sweep(path, protocol.name, protocol, policy, subjects, good, workers)
 
 
@@ -176,7 +187,10 @@ def _apply_overrides(pdoc: dict, overrides: Any, path: Path) -> None:
         section.setdefault("ros__parameters", {})[param] = value
 
 
-def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[str]) -> dict[str, Any]:
+def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[str],
+                             levels: dict[str, dict[str, str]]) -> dict[str, Any]:
+    """Every combination of the factors' values as a condition; ``levels`` gets each condition's
+    level (label) of every factor."""
     if not isinstance(factors, dict) or not factors:
         errors.append(f"{path}: factors: expected a mapping NODE.PARAM: [values], e.g. spv.mode: [grey, depth]")
         return {}
@@ -197,21 +211,24 @@ def _conditions_from_factors(factors: Any, pdoc: dict, path: Path, errors: list[
         for n, p, v in combo:
             body.setdefault(n, {})[p] = v
         conditions[name] = body
+        levels[name] = {f"{n}.{p}": _factor_label(v) for n, p, v in combo}
     return conditions
 
 
 # -- running -------------------------------------------------------------------------------------
 
-def run_job(sweep_path: str, number: int, out: str, resume: bool) -> dict[str, Any]:
-    """One virtual subject's session on a private ROS domain (a worker process or a Ray task).
-    Returns the session's records (so a driver without a shared disk still gets them)."""
+def run_job(sweep_path: str, number: int, out: str, resume: bool,
+            domains: tuple[int, int] | None = None) -> dict[str, Any]:
+    """One virtual subject's session on a private ROS domain (in ``domains`` [low, high) when
+    given; a worker process or a Ray task). Returns the session's records (so a driver without a
+    shared disk still gets them)."""
     from raspv_bringup.middleware import apply_middleware_defaults
     from raspv_experiments.domains import private_domain
     from raspv_experiments.session_runner import RunOptions, SessionRunner
 
     sweep = load_sweep(sweep_path)
     subject = f"scripted-{sweep.policy}-{number}"
-    with private_domain() as domain:
+    with private_domain(*(domains or ())) as domain:
         apply_middleware_defaults()
         options = RunOptions(out=Path(out), subject=subject, policy=sweep.policy, number=number, resume=resume,
                              lockstep=True, headless=True, keys=False, subject_params=dict(sweep.subject_params))
@@ -258,13 +275,17 @@ def _store(result: dict[str, Any], out: Path) -> None:
 
 
 def run_sweep(sweep: Sweep, out: Path, workers: int | None = None, ray_address: str | None = None,
-              resume: bool = False, say=print) -> list[dict[str, Any]]:
-    """Run every job of ``sweep``; results (one per subject) in the order they finish."""
+              resume: bool = False, say=print, domains: tuple[int, int] | None = None) -> list[dict[str, Any]]:
+    """Run every job of ``sweep``; results (one per subject) in the order they finish. ``domains``
+    (low, high): the ROS domain ids the graphs may take (default: any free one in 30–230)."""
     out = Path(out)
+    if (out / "sessions").exists() and any((out / "sessions").rglob("session.json")) and not resume:
+        raise ProtocolError([f"{out} already holds this sweep's sessions: add --resume to continue them, or use "
+                             "another --out"])
     (out / "sessions").mkdir(parents=True, exist_ok=True)
     (out / "sweep.yaml").write_text(sweep.path.read_text())
     (out / "protocol.yaml").write_text(sweep.protocol.text)
-    jobs = [(str(sweep.path.resolve()), n, str((out / "sessions").resolve()), resume) for n in sweep.subjects]
+    jobs = [(str(sweep.path.resolve()), n, str((out / "sessions").resolve()), resume, domains) for n in sweep.subjects]
     n_cond = len(sweep.protocol.conditions)
     say(f"sweep {sweep.name}: {len(jobs)} virtual subjects × {n_cond} conditions × {len(sweep.protocol.tasks)} tasks × "
         f"{sweep.protocol.design.repetitions} repetitions, policy {sweep.policy}")
@@ -275,13 +296,56 @@ def run_sweep(sweep: Sweep, out: Path, workers: int | None = None, ray_address: 
         workers = workers or sweep.workers or max(1, min(len(jobs), (os.cpu_count() or 2) // 2))
         say(f"running on {workers} worker process{'es' if workers > 1 else ''} (each graph on its own ROS domain)")
         ctx = multiprocessing.get_context("spawn")
+        progress = SweepProgress(out / "sessions" / sweep.name, _total_trials(sweep), say)
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = {pool.submit(run_job, *job): job for job in jobs}
-            for fut in cf.as_completed(futures):
-                results.append(_finished(fut.result(), say))
+            pending = {pool.submit(run_job, *job) for job in jobs}
+            while pending:
+                done, pending = cf.wait(pending, timeout=PROGRESS_PERIOD_S, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    results.append(_finished(fut.result(), say))
+                progress.update()
     for r in results:
         _store(r, out)
     return results
+
+
+PROGRESS_PERIOD_S = 10.0
+
+
+def _total_trials(sweep: Sweep) -> int:
+    from raspv_experiments.design import plan_session
+
+    return sum(len(plan_session(sweep.protocol, f"scripted-{sweep.policy}-{n}")) for n in sweep.subjects)
+
+
+class SweepProgress:
+    """Trials done over the whole sweep (counted in the sessions' trials.jsonl on this disk), with
+    the elapsed time and an ETA, said whenever the count changes."""
+
+    def __init__(self, sessions: Path, total: int, say) -> None:
+        import time
+
+        self.sessions, self.total, self.say = sessions, total, say
+        self.started = time.monotonic()
+        self.at_start = self.count()
+        self.last = self.at_start
+
+    def count(self) -> int:
+        from raspv_experiments.session import DONE_STATUSES, read_jsonl
+
+        return sum(1 for f in self.sessions.glob("*/trials.jsonl") for r in read_jsonl(f)
+                   if r.get("status") in DONE_STATUSES)
+
+    def update(self) -> None:
+        import time
+
+        from raspv_experiments.session_control import elapsed_and_eta
+
+        n = self.count()
+        if n != self.last:
+            self.last = n
+            eta = elapsed_and_eta(n - self.at_start, self.total - self.at_start, time.monotonic() - self.started)
+            self.say(f"  {n}/{self.total} trials done, {eta}")
 
 
 def _finished(result: dict[str, Any], say) -> dict[str, Any]:

@@ -1,6 +1,8 @@
 """`bridge` node: the headset server (raspv_hmd/server.py) in the graph.
 
-Subscribes ``/spv/image`` (mono8 or rgb8) and streams it to headset clients; publishes the
+Streams the spv node's frames to headset clients — the levels stream to clients that draw the
+sprites themselves (the browser client), ``/spv/image`` (mono8 or rgb8) to the others, and the
+no-data ring while the spv node is gone (:mod:`raspv_hmd.bridge_frames`); publishes the
 controlling client's head as ``/head/orientation`` (QuaternionStamped, frame ``base``, head
 relative to the base, identity looks ahead) and its teleop as ``/cmd_vel`` (Twist, clamped to
 ``max_linear``/``max_angular``; one zero twist after ``deadman_timeout`` without input); turns
@@ -19,15 +21,14 @@ import time
 from typing import Any, Callable
 
 from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist
-from sensor_msgs.msg import Image
 from std_msgs.msg import String
 
 from raspv_common import topics
-from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS
 from raspv_hmd.audio_cues import CueSettings
+from raspv_hmd.bridge_frames import BridgeFrames
 from raspv_hmd.bridge_params import PARAMS
 from raspv_hmd.cue_relay import CueRelay
 from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
@@ -45,7 +46,7 @@ def device_values(current: dict[str, Any]) -> dict[str, Any] | None:
     return dataclasses.asdict(load_device(current["device"]))
 
 
-class BridgeNode(RaspvNode):
+class BridgeNode(BridgeFrames, RaspvNode):
     def __init__(self) -> None:
         super().__init__("bridge", PARAMS)
         p = self.params
@@ -64,16 +65,16 @@ class BridgeNode(RaspvNode):
         self.request_id = 0
         self.current: tuple[int, int, float] | None = None      # (request id, client, started)
         self.request_guard = self.create_guard_condition(self._next_request)
-        self.create_timer(0.1, self._check_requests)
+        # requests are checked for time-outs while there are any (an idle timer costs rclpy wake-ups)
+        self._request_timer = self.create_timer(0.1, self._check_requests)
+        self._setup_frames()
         callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
                               on_param=self.on_param, on_event=lambda text: self.get_logger().info(text),
-                              on_experiment=self.on_experiment)
+                              on_experiment=self.on_experiment, on_clients=self._clients_changed.trigger)
         try:
             self.server = HeadsetServer(config, callbacks).start()
         except (ServerError, ValueError) as exc:
             raise ConfigurationError(str(exc)) from None
-        self.frames = 0
-        self.create_subscription(Image, topics.SPV_IMAGE, self.on_image, SENSOR_QOS)
         self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
         if p["audio_cues"]:      # navigation guidance and stairs → spatial audio in the clients
@@ -83,20 +84,6 @@ class BridgeNode(RaspvNode):
             print(f"headset client: open {page} in a browser{native}", flush=True)
         if self.server.token and not p["token"]:
             print(f"bridge token (generated, listening on {p['host']}): {self.server.token}", flush=True)
-
-    # -- frames ---------------------------------------------------------------------------------
-    def on_image(self, msg: Image) -> None:
-        if msg.encoding not in ("mono8", "rgb8"):
-            self.warn_throttled("encoding", f"ignoring {topics.SPV_IMAGE} in {msg.encoding!r}; expected mono8 or rgb8")
-            return
-        try:
-            image = image_to_array(msg)
-        except ImageEncodingError as exc:
-            self.warn_throttled("image", f"ignoring a broken {topics.SPV_IMAGE} message: {exc}")
-            return
-        stamp = stamp_to_seconds(msg.header.stamp) or time.time()
-        self.server.submit_frame(image, stamp)
-        self.frames += 1
 
     # -- experiments ----------------------------------------------------------------------------
     def on_instructions(self, msg: String) -> None:
@@ -168,6 +155,8 @@ class BridgeNode(RaspvNode):
     def _next_request(self) -> None:
         """Start the oldest queued request once the previous one ended and the spv node's
         parameter services are discovered (requests wait up to PARAM_REPLY_TIMEOUT_S for that)."""
+        if self._request_timer.is_canceled():
+            self._request_timer.reset()
         with self.requests_lock:
             if self.current is not None or not self.requests:
                 return
@@ -222,6 +211,8 @@ class BridgeNode(RaspvNode):
             self._finish(current[0], f"node {self.spv.target} did not answer (is it running?)", ok=False)
         elif current is None and waiting:
             self._next_request()
+        elif current is None:
+            self._request_timer.cancel()            # idle until the next request (_next_request resets it)
 
     # -- lifecycle --------------------------------------------------------------------------------
     def close(self) -> None:
@@ -234,7 +225,8 @@ class BridgeNode(RaspvNode):
                 pass
             stats = server.stats()
             server.stop()
-            print(f"bridge: {self.frames} frames in, {stats.connections} clients served, "
+            self._close_frames()
+            print(f"bridge: {self.frames} frames and {self.images} images in, {stats.connections} clients served, "
                   f"{stats.refused_total} messages refused, {sum(stats.rejected.values())} connections rejected",
                   flush=True)
 

@@ -22,7 +22,7 @@ PARAMS = [
     Param("max_refused", 20, "refused messages after which a client is dropped", minimum=1, maximum=10000,
           dynamic=False),
     Param("tls_cert", "", "PEM certificate: serve https/wss (WebXR needs it off localhost)", dynamic=False,
-          file_kind="pem"),
+          file_kind="tls_certificate"),
     Param("tls_key", "", "PEM private key of tls_cert", dynamic=False, file_kind="pem"),
     Param("audio_cues", ["waypoint", "obstacle", "stairs"], "spatial audio cues sent to the clients (from "
           "/nav/guidance and /stairs; empty: none); each client switches them on with 'm'",

@@ -15,7 +15,7 @@ import threading
 import cv2
 import numpy as np
 
-from raspv_hmd.protocol import FLAG_GREEN, FORMAT_PNG, FORMAT_RAW, FrameHeader, pack_frame_header
+from raspv_hmd.protocol import FLAG_GREEN, FORMAT_LEVELS, FORMAT_PNG, FORMAT_RAW, FrameHeader, pack_frame_header
 
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 2, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_NONE]
 PNG_WORTH = 0.75                # PNG is used only when it is below this fraction of the raw size
@@ -73,3 +73,19 @@ class OutgoingFrame:
         header = pack_frame_header(FrameHeader(fmt, self.channels, self.width, self.height, self.seq,
                                                len(payload), self.stamp, sent, self.flags))
         return fmt, header + payload
+
+
+class LevelsFrame:
+    """A submitted frame of the levels stream: its payload (:mod:`raspv_hmd.levels_stream`) is
+    the same for every client; only the header's send time differs."""
+
+    def __init__(self, seq: int, map_id: int, payload: bytes, stamp: float, width: int, height: int,
+                 green: bool = False) -> None:
+        self.seq, self.map_id, self.payload, self.stamp = seq, map_id, payload, float(stamp)
+        self.width, self.height, self.flags = width, height, FLAG_GREEN if green else 0
+
+    def message(self, _wanted: int, sent: float) -> tuple[int, bytes]:
+        """(FORMAT_LEVELS, the whole frame message) stamped ``sent`` (s)."""
+        header = pack_frame_header(FrameHeader(FORMAT_LEVELS, 1, self.width, self.height, self.seq,
+                                               len(self.payload), self.stamp, sent, self.flags))
+        return FORMAT_LEVELS, header + self.payload

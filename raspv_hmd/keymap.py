@@ -80,7 +80,7 @@ SIMPLE_KEYS: dict[str, tuple[str, Callable[[Any], Any]]] = {
 DEVICE_SENTINELS: dict[str, Any] = {"num_phosphenes": 0, "fov_deg": 0.0, "phosphene_fov_deg": 0.0,
                                     "num_levels": 0, "grid": "", "field": "", "dropout": -1.0, "noise_px": -1.0}
 DEPTH_KEYS = {"j": -1, "J": +1}          # chess tile ±0.25 m or max depth ±0.5 m
-MODE_KEYS = "123456789"
+MODE_KEYS = frozenset("123456789")      # one character each: "" or "12" is no mode key
 # What t / T cycle through: the things a subject is asked to find in the shipped worlds (ADE20K
 # names or synonyms, so they also work with an ADE20K or COCO-Stuff model).
 HIGHLIGHT_CLASSES = ("person", "laptop", "bin", "door", "chair", "table")

@@ -29,7 +29,8 @@ FRAME_MAGIC = b"RSPV"
 FRAME_HEADER = struct.Struct("<4sBBBBIIIIdd")
 FORMAT_RAW = 0
 FORMAT_PNG = 1
-FORMAT_NAMES = {FORMAT_RAW: "raw", FORMAT_PNG: "png"}
+FORMAT_LEVELS = 2                  # per-phosphene weights drawn by the client (raspv_hmd/levels_stream.py)
+FORMAT_NAMES = {FORMAT_RAW: "raw", FORMAT_PNG: "png", FORMAT_LEVELS: "levels"}
 FLAG_GREEN = 1                     # a 1-channel frame that is the green channel of an rgb8 image
 
 # TCP framing: payload length u32, kind u8, then the payload.
@@ -58,7 +59,7 @@ class Hello:
     token: str = ""
     name: str = ""
     role: str = "control"          # "control" (wants control) or "watch"
-    format: str = "auto"           # "auto", "raw" or "png"
+    format: str = "auto"           # "auto", "raw", "png" or "levels" (the client draws the sprites)
     window: int = 0                # frames in flight before an ack is needed (0: no acks)
 
 
@@ -203,7 +204,10 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
     if kind == "twist":
         return Twist(_number(obj, "linear", -100.0, 100.0), _number(obj, "angular", -100.0, 100.0))
     if kind == "key":
-        return Key(_string(obj, "key", max_length=MAX_KEY_LENGTH))
+        key = _string(obj, "key", max_length=MAX_KEY_LENGTH)
+        if not key:
+            raise ProtocolError("bad_field", f"'key' must name a key, e.g. \"1\" or \"t\"; got {key!r}")
+        return Key(key)
     if kind == "param":
         name = _string(obj, "name")
         value = obj.get("value")
@@ -229,7 +233,7 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
             raise ProtocolError("version", f"protocol {version!r} is not supported; this server speaks {PROTOCOL_VERSION}")
         return Hello(token=_string(obj, "token", "", max_length=256), name=_string(obj, "name", ""),
                      role=_string(obj, "role", "control", choices=("control", "watch")),
-                     format=_string(obj, "format", "auto", choices=("auto", "raw", "png")),
+                     format=_string(obj, "format", "auto", choices=("auto", "raw", "png", "levels")),
                      window=int(_number({"window": obj.get("window", 0)}, "window", 0, 16)))
     raise ProtocolError("unknown_type", f"unknown message type {kind!r}")
 
@@ -248,7 +252,7 @@ def server_message(kind: str, **fields: Any) -> str:
 
 @dataclass(frozen=True)
 class FrameHeader:
-    format: int          # FORMAT_RAW or FORMAT_PNG
+    format: int          # FORMAT_RAW, FORMAT_PNG or FORMAT_LEVELS
     channels: int        # 1 (mono8) or 3 (rgb8)
     width: int
     height: int

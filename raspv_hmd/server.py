@@ -2,8 +2,10 @@
 optional plain TCP port for native clients; frames out, head pose and controls in. No rclpy.
 
 It runs an asyncio loop in its own thread. The owner (the ``bridge`` node, a benchmark, a test)
-calls :meth:`HeadsetServer.submit_frame` from any thread — only the newest frame is kept, so a
-slow client skips stale frames instead of queueing them — and gets the controlling client's
+calls :meth:`HeadsetServer.submit_frame` (images) and :meth:`~HeadsetServer.submit_levels` (the
+levels stream: per-phosphene weights the client draws from a sprite atlas sent once,
+:mod:`raspv_hmd.levels_stream`) from any thread — only the newest frame is kept, so a slow
+client skips stale frames instead of queueing them — and gets the controlling client's
 input through :class:`Callbacks`, called on the server thread. The protocol is in
 ``protocol.py`` and docs/hmd.md; who controls is decided by ``control.ControlArbiter``.
 
@@ -40,7 +42,7 @@ from websockets.http11 import Request, Response
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_hmd import protocol as P
 from raspv_hmd.control import ControlArbiter, DeadMan
-from raspv_hmd.frame_encoding import OutgoingFrame
+from raspv_hmd.frame_encoding import LevelsFrame, OutgoingFrame
 
 HARD_MESSAGE_LIMIT = 65536          # bytes; a client sending more than this in one message is dropped
 CLOSE_TIMEOUT_S = 1.0               # wait this long for a client's closing handshake, then close the socket
@@ -49,11 +51,13 @@ WS_PATH = "/ws"
 STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
                 "/index.html": ("index.html", "text/html; charset=utf-8"),
                 "/client.js": ("client.js", "text/javascript; charset=utf-8"),
+                "/levels_renderer.js": ("levels_renderer.js", "text/javascript; charset=utf-8"),
+                "/levels_kernels.wasm": ("levels_kernels.wasm", "application/wasm"),
                 "/audio_cues.js": ("audio_cues.js", "text/javascript; charset=utf-8"),
                 "/style.css": ("style.css", "text/css; charset=utf-8")}
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "
-       "style-src 'self'; script-src 'self'")
+       "style-src 'self'; script-src 'self' 'wasm-unsafe-eval'")     # WebAssembly: the levels kernels
 
 
 class ServerError(RuntimeError):
@@ -128,6 +132,7 @@ class Callbacks:
     on_key: Callable[[int, str], None] = _noop                  # (client id, key)
     on_param: Callable[[int, str, Any], None] = _noop           # (client id, name, value)
     on_event: Callable[[str], None] = _noop                     # connection events, for the log
+    on_clients: Callable[[], None] = _noop                      # a client came or went (formats may change)
     on_experiment: Callable[[int, str, str], None] = _noop      # (client id, "start"/"abort", instructions id)
 
 
@@ -162,11 +167,13 @@ class _Link(Protocol):
     client closed)."""
 
     transport: str
+    said_bye: bool                       # set by _send_bye: close() then expects only the closing handshake
 
     async def send_text(self, text: str) -> None: ...
     async def send_frame(self, data: bytes) -> None: ...
     async def recv(self) -> str | bytes | None: ...
     async def close(self) -> None: ...
+    def cut(self) -> None: ...
 
 
 class _WebSocketLink:
@@ -174,6 +181,8 @@ class _WebSocketLink:
 
     def __init__(self, ws: ServerConnection) -> None:
         self.ws = ws
+        self.said_bye = False             # the server told the client why it goes (_send_bye)
+        self._receiving = False
 
     async def send_text(self, text: str) -> None:
         await self.ws.send(text)
@@ -182,18 +191,37 @@ class _WebSocketLink:
         await self.ws.send(data)
 
     async def recv(self) -> str | bytes | None:
+        self._receiving = True
         try:
             msg = await self.ws.recv()
         except ConnectionClosed as exc:
             if exc.sent is not None and exc.sent.code == 1009:
                 raise _Drop("oversized", f"message above {HARD_MESSAGE_LIMIT} bytes") from None
             return None
+        finally:
+            self._receiving = False
         if isinstance(msg, bytes):
             raise P.ProtocolError("binary", "clients send JSON text messages, not binary ones")
         return msg
 
     async def close(self) -> None:
-        await self.ws.close()
+        if not self.said_bye or self._receiving:   # receiving elsewhere: that loop cuts (_receive_loop)
+            await self.ws.close()
+            return
+        # after a bye the only answer expected is the closing handshake; a client that sends a
+        # message instead is not listening, and is cut off at once rather than after the timeout
+        closing = asyncio.create_task(self.ws.close())
+        try:
+            await asyncio.wait_for(self.ws.recv(), CLOSE_TIMEOUT_S)
+        except (ConnectionClosed, asyncio.TimeoutError):
+            pass
+        else:
+            self.cut()
+        await closing
+
+    def cut(self) -> None:
+        """Close the connection now (what is buffered is still sent), no closing handshake."""
+        self.ws.transport.close()
 
 
 class _TcpLink:
@@ -201,6 +229,7 @@ class _TcpLink:
 
     def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self.reader, self.writer = reader, writer
+        self.said_bye = False
         writer.transport.set_write_buffer_limits(high=P.MAX_CLIENT_MESSAGE * 16)
 
     async def _write(self, kind: int, data: bytes) -> None:
@@ -232,6 +261,9 @@ class _TcpLink:
         except (OSError, asyncio.TimeoutError):
             self.writer.transport.abort()   # the client does not read: do not linger
 
+    def cut(self) -> None:
+        self.writer.transport.close()
+
 
 class _Session:
     def __init__(self, cid: int, link: _Link, peer: str, remote: bool, hello: P.Hello, compression: str,
@@ -241,9 +273,10 @@ class _Session:
         self.peer = peer
         self.name = hello.name or f"client {cid}"
         wanted = hello.format if hello.format != "auto" else compression
-        if wanted == "auto":
-            wanted = "png" if remote else "raw"
-        self.format = P.FORMAT_PNG if wanted == "png" else P.FORMAT_RAW
+        image = wanted if wanted in ("raw", "png") else "png" if remote else "raw"
+        self.image_format = P.FORMAT_PNG if image == "png" else P.FORMAT_RAW   # images when levels cannot be sent
+        self.format = P.FORMAT_LEVELS if wanted == "levels" else self.image_format
+        self.sprites_sent = -1                       # map id of the sprites this client has (levels stream)
         self.window = hello.window
         self.received = 0
         self.refused: collections.Counter[str] = collections.Counter()
@@ -298,6 +331,10 @@ class HeadsetServer:
         self._deadman = DeadMan(self.config.deadman_s)
         self._deadman_timer: asyncio.TimerHandle | None = None
         self._latest: OutgoingFrame | None = None
+        self._latest_levels: LevelsFrame | None = None
+        self._sprites: tuple[int, bytes] | None = None     # (map id, sprites message) of the levels stream
+        # why the levels stream cannot be sent (then images): until the owner submits sprites, none
+        self._levels_unavailable = "no sprites submitted"
         self._instructions = ""                  # the latest experiment instructions (JSON text)
         self._seq = 0
         self._seq_lock = threading.Lock()
@@ -446,13 +483,46 @@ class HeadsetServer:
         frame = OutgoingFrame(seq, image, stamp)
         if self._png_clients > 0:
             frame.payload(P.FORMAT_PNG)          # encode here, off the server thread
+        self._call_soon(self._new_frame, frame)
+        return seq
+
+    def submit_sprites(self, map_id: int, message: bytes) -> None:
+        """The sprite atlas of map ``map_id`` (:meth:`raspv_hmd.levels_stream.SpriteAtlas.message`)
+        for levels clients; sent to each before its first frame of that map."""
+        self._call_soon(self._set_sprites, (map_id, message), "")
+
+    def levels_unavailable(self, reason: str) -> None:
+        """The levels stream cannot be drawn (e.g. the sprites exceed a texture): levels clients
+        get images until the next :meth:`submit_sprites`, and are told ``reason``."""
+        self._call_soon(self._set_sprites, None, reason)
+
+    def submit_levels(self, map_id: int, payload: bytes, stamp: float, width: int, height: int,
+                      green: bool = False) -> int:
+        """Offer one frame as a levels payload (:func:`raspv_hmd.levels_stream.pack_levels_payload`)
+        to levels clients; returns its sequence number. Replaces any frame not yet sent."""
+        with self._seq_lock:
+            self._seq += 1
+            seq = self._seq
+        self._call_soon(self._new_levels, LevelsFrame(seq, map_id, payload, stamp, width, height, green))
+        return seq
+
+    @property
+    def wants_images(self) -> bool:
+        """Some client needs phosphene images (it asked for raw/png, or levels cannot be sent)."""
+        return any(s.format != P.FORMAT_LEVELS or self._levels_unavailable for s in list(self._sessions.values()))
+
+    @property
+    def wants_levels(self) -> bool:
+        """Some client draws the levels stream."""
+        return any(s.format == P.FORMAT_LEVELS for s in list(self._sessions.values()))
+
+    def _call_soon(self, fn: Callable[..., None], *args: Any) -> None:
         loop = self._loop
         if loop is not None and self._ready.is_set() and self._start_error is None:
             try:
-                loop.call_soon_threadsafe(self._new_frame, frame)
+                loop.call_soon_threadsafe(fn, *args)
             except RuntimeError:                  # the loop is closing
                 pass
-        return seq
 
     def notify(self, text: str, ok: bool = True, client: int | None = None) -> None:
         """Send a status line to one client (by id) or to all (``None``)."""
@@ -510,7 +580,35 @@ class HeadsetServer:
             return
         self._latest = frame
         for s in self._sessions.values():
-            s.frame_ready.set()
+            if s.format != P.FORMAT_LEVELS or self._levels_unavailable:
+                s.frame_ready.set()
+
+    def _new_levels(self, frame: "LevelsFrame") -> None:
+        if self._latest_levels is not None and frame.seq < self._latest_levels.seq:
+            return
+        self._latest_levels = frame
+        for s in self._sessions.values():
+            if s.format == P.FORMAT_LEVELS:
+                s.frame_ready.set()
+
+    def _set_sprites(self, sprites: tuple[int, bytes] | None, reason: str) -> None:
+        was = self._levels_unavailable
+        self._sprites, self._levels_unavailable = sprites, reason
+        if reason and reason != was:
+            self._event(f"levels stream unavailable ({reason}): levels clients get images")
+            for s in self._sessions.values():
+                if s.format == P.FORMAT_LEVELS:
+                    self._send(P.server_message("status", ok=False, text=f"images instead of levels: {reason}"), s.id)
+
+    def _next_for(self, s: _Session) -> tuple[int, Any] | None:
+        """(format, frame) this client gets next: a levels frame whose sprites it has (or can get
+        now), else the newest image."""
+        if s.format == P.FORMAT_LEVELS and not self._levels_unavailable:
+            frame = self._latest_levels
+            if frame is None or self._sprites is None or self._sprites[0] != frame.map_id:
+                return None                       # its sprites are not in yet: nothing to draw with
+            return P.FORMAT_LEVELS, frame
+        return (s.image_format if s.format == P.FORMAT_LEVELS else s.format), self._latest
 
     async def _sender(self, s: _Session) -> None:
         while True:
@@ -519,12 +617,16 @@ class HeadsetServer:
             while s.window and len(s.in_flight) >= s.window:
                 s.acked.clear()
                 await s.acked.wait()
-            frame = self._latest
-            if frame is None or frame.seq <= s.last_sent:
+            picked = self._next_for(s)
+            if picked is None or picked[1] is None or picked[1].seq <= s.last_sent:
                 continue
-            if s.last_sent:
+            fmt, frame = picked
+            if fmt == P.FORMAT_LEVELS and s.sprites_sent != frame.map_id:
+                await s.link.send_frame(self._sprites[1])     # the atlas first (once per map)
+                s.sprites_sent = frame.map_id
+            if s.last_sent and fmt == s.format:
                 s.frames_skipped += frame.seq - s.last_sent - 1
-            _, data = frame.message(s.format, time.time())
+            _, data = frame.message(fmt, time.time())
             s.last_sent = frame.seq
             if s.window:
                 s.in_flight.append((frame.seq, time.monotonic()))
@@ -599,13 +701,14 @@ class HeadsetServer:
             window=s.window, server_time=time.time(), deadman_s=self.config.deadman_s,
             limits={"message_bytes": P.MAX_CLIENT_MESSAGE, "rate": self.config.max_rate,
                     "max_refused": self.config.max_refused, "idle_s": self.config.idle_timeout_s}))
+        self._call(self.callbacks.on_clients)
         self._event(f"{link.transport} client {cid} '{s.name}' from {peer_text} connected ({role}, "
                     f"{P.FORMAT_NAMES[s.format]} frames)")
         if changed:
             await self._announce_roles()
         if self._instructions:
             await self._say(s, self._instructions)
-        if self._latest is not None:
+        if self._latest is not None or self._latest_levels is not None:
             s.frame_ready.set()
         sender = asyncio.create_task(self._sender(s))
         reason = "left"
@@ -642,6 +745,7 @@ class HeadsetServer:
             if was_controller and self._deadman.release():
                 self._call(self.callbacks.on_cmd_vel, 0.0, 0.0)
             await link.close()
+            self._call(self.callbacks.on_clients)
             self._event(f"client {cid} '{s.name}' {reason} (received {s.received}, refused "
                         f"{sum(s.refused.values())}, frames sent {s.frames_sent})")
             if changed:
@@ -669,22 +773,27 @@ class HeadsetServer:
             if not hmac.compare_digest(given.encode(), self.token.encode()):
                 return await self._reject("token", peer, "wrong or missing token", link)
         if len(self._sessions) >= self.config.max_clients and not await self._make_room(hello, peer):
-            return await self._reject("full", peer, f"the server is full ({self.config.max_clients} clients)", link)
+            why = f"the server is full ({self.config.max_clients} clients)"
+            if hello.role == "control":
+                why += ", each controlling or in line for control"
+            return await self._reject("full", peer, why, link)
         return hello
 
     async def _make_room(self, hello: P.Hello, peer: str) -> bool:
-        """A client that wants control always gets a slot: evict a client that does not control,
-        watchers first, then the one that sent a control message least recently (pinging does
-        not count). A watcher evicts nobody. True when a slot is free now."""
+        """Room for a newcomer that wants control, when the server is full: a watcher (a client
+        that neither controls nor wants control) is evicted, the one least recently active
+        first. Clients that want control are in line for it and keep their place: when every
+        slot holds one, the newcomer is refused. A watcher evicts nobody. True when a slot is
+        free now."""
         if hello.role != "control":
             return False
         ctl = self._arbiter.controller
-        candidates = [s for s in self._sessions.values() if s.id != ctl and s.evicted is None]
-        if not candidates:
+        watchers = [s for s in self._sessions.values() if s.id != ctl and not s.wants_control and s.evicted is None]
+        if not watchers:
             return False
-        victim = min(candidates, key=lambda s: (s.wants_control, s.last_active, s.id))
+        victim = min(watchers, key=lambda s: (s.last_active, s.id))
         why = (f"evicted: the server was full ({self.config.max_clients} clients) and a client that wants "
-               f"control ({hello.name or peer}) needed a slot")
+               f"control ({hello.name or peer}) needed a watcher's slot")
         victim.evicted = why
         self._dropped["evicted"] += 1
         self._event(f"client {victim.id} '{victim.name}' {why}")
@@ -706,6 +815,7 @@ class HeadsetServer:
         return None
 
     async def _send_bye(self, link: _Link, reason: str) -> None:
+        link.said_bye = True
         try:
             await asyncio.wait_for(link.send_text(P.server_message("bye", reason=reason)), BYE_TIMEOUT_S)
         except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
@@ -723,6 +833,9 @@ class HeadsetServer:
                 continue
             if raw is None:
                 return "left"
+            if s.evicted is not None:            # told to go, and still sending: not listening
+                s.link.cut()
+                return s.evicted
             s.received += 1
             if not s.take_token(time.monotonic()):
                 await self._refuse(s, P.ProtocolError("rate", f"more than {cfg.max_rate:g} messages/s"))

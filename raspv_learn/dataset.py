@@ -135,7 +135,7 @@ class WorldRenderer:
     def __init__(self, world: str, recipe: DataRecipe) -> None:
         from scipy.ndimage import distance_transform_edt
 
-        from raspv_nav.occupancy import FREE
+        from raspv_common.occupancy import FREE
         from raspv_perception.scene_perception import ScenePerception
         from raspv_sim.occupancy_export import world_occupancy
         from raspv_sim.simulator import SimConfig, Simulation

@@ -25,7 +25,7 @@ from raspv_nav.guidance import Guidance, nearest_obstacle_ahead
 from raspv_nav.local_planner import DWAConfig, DWAPlanner, DWAResult, grid_clearance, lookahead_point
 from raspv_nav.motion import MapAlignment
 from raspv_nav.obstacle_layer import DepthObservation, ObstacleLayerConfig
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 
 @dataclass
@@ -154,3 +154,14 @@ class NavigationAssistant:
                         self.alignment.yaw_to_world(yaw), None if waypoint is None else to_world(waypoint)[0],
                         remaining, command.linear, command.angular, command.feasible,
                         None if obstacle is None else to_world(obstacle)[0], obstacle_dist)
+
+
+def assistant_config(p: dict) -> AssistantConfig:
+    """The core's configuration from the node's parameters (raises ValueError)."""
+    return AssistantConfig(
+        costmap=CostmapConfig(robot_radius=p["robot_radius"], inflation_radius=p["inflation_radius"],
+                              cost_weight=p["cost_weight"]),
+        obstacles=ObstacleLayerConfig(min_height=p["obstacle_min_height"], max_height=p["obstacle_max_height"],
+                                      max_range=p["obstacle_range"], decay_s=p["obstacle_memory"]),
+        dwa=DWAConfig(max_speed=p["max_speed"], robot_radius=p["robot_radius"]),
+        goal_tolerance=p["goal_tolerance"], max_relocation=p["max_relocation"], proximity_range=p["proximity_range"])

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from raspv_nav.obstacle_layer import ObstacleLayer, ObstacleLayerConfig
-from raspv_nav.occupancy import OCCUPIED, UNKNOWN, OccupancyGrid
+from raspv_common.occupancy import OCCUPIED, UNKNOWN, OccupancyGrid
 
 
 @dataclass(frozen=True)

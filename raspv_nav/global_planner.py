@@ -23,7 +23,7 @@ import numpy as np
 
 from raspv_nav.astar import AStarGrid, blocked_border, chain_cost
 from raspv_nav.costmap import Costmap, CostmapConfig, CostmapState
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 
 class NoPathError(ValueError):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 
 @dataclass

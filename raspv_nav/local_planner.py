@@ -32,7 +32,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from raspv_nav.costmap import CostmapState
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 ClearanceFn = Callable[[np.ndarray], np.ndarray]      # (K, 2) W points → (K,) distance to obstacles [m]
 

@@ -21,7 +21,7 @@ from std_msgs.msg import Header
 from raspv_common.conversions import array_to_point, matrix_to_pose, stamp_to_seconds, xyz_to_array
 from raspv_nav.guidance import Guidance
 from raspv_nav.motion import MapAlignment, planar_transform
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 
 def path_to_msg(path: np.ndarray, header: Header) -> PathMsg:

@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_nav.occupancy import OccupancyGrid
+from raspv_common.occupancy import OccupancyGrid
 
 _SHIFT = 4                       # cv2.fillPoly sub-cell precision: coordinates × 2⁴
 

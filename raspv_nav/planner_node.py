@@ -16,6 +16,12 @@ it). Publishes, in the frame of the poses (``world``):
   nav_msgs/OccupancyGrid at ``costmap_rate``.
 
 All times are message stamps, so a replayed bag works with bag time.
+
+With ``lockstep`` (scripted subjects, :mod:`raspv_sim.lockstep`) there are no timers: frame k of
+the simulator is handled once its depth, camera pose, odometry and the ``/spv/frame`` shown from
+it are in — obstacles, a replan when 1/``replan_rate`` s of frame time have passed, the velocity
+hint, the costmaps — and then answered on ``/sim/lockstep``, so the world steps only after the
+path planned from frame k is out and every run shows the same path on the same frame.
 """
 from __future__ import annotations
 
@@ -26,11 +32,11 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMsg
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
-from raspv_msgs.msg import NavGuidance
+from raspv_msgs.msg import NavGuidance, PhospheneFrame
 from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_common import topics
@@ -38,25 +44,11 @@ from raspv_common.conversions import pose_to_matrix, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
-from raspv_nav.assistant import AssistantConfig, NavigationAssistant
-from raspv_nav.costmap import CostmapConfig
-from raspv_nav.local_planner import DWAConfig
+from raspv_nav.assistant import NavigationAssistant, assistant_config
 from raspv_nav.motion import MapAlignment, VelocityEstimator, planar_pose
 from raspv_nav.nav_msg import costmap_to_msg, guidance_to_msg, path_to_msg
-from raspv_nav.obstacle_layer import ObstacleLayerConfig
-from raspv_nav.occupancy import MapFormatError, load_map
+from raspv_common.occupancy import MapFormatError, load_map
 from raspv_nav.planner_params import PARAMS
-
-
-def assistant_config(p: dict) -> AssistantConfig:
-    """The core's configuration from the node's parameters (raises ValueError)."""
-    return AssistantConfig(
-        costmap=CostmapConfig(robot_radius=p["robot_radius"], inflation_radius=p["inflation_radius"],
-                              cost_weight=p["cost_weight"]),
-        obstacles=ObstacleLayerConfig(min_height=p["obstacle_min_height"], max_height=p["obstacle_max_height"],
-                                      max_range=p["obstacle_range"], decay_s=p["obstacle_memory"]),
-        dwa=DWAConfig(max_speed=p["max_speed"], robot_radius=p["robot_radius"]),
-        goal_tolerance=p["goal_tolerance"], max_relocation=p["max_relocation"], proximity_range=p["proximity_range"])
 
 
 class PlannerNode(RaspvNode):
@@ -94,7 +86,15 @@ class PlannerNode(RaspvNode):
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(Image, topics.DEPTH, self.on_depth, SENSOR_QOS)
         self._timers: list = []
-        self._start_timers(p)
+        self.lockstep = bool(p["lockstep"])
+        self._lock_in: dict[str, float] = {"odom": -1.0, "spv": -1.0}   # newest stamp of each input [s]
+        self._lock_depth: tuple[float, np.ndarray | None] | None = None  # the frame waiting to be handled
+        self._lock_last: dict[str, float] = {"replan": -1e9, "control": -1e9, "costmap": -1e9}
+        if self.lockstep:
+            self.pub_lockstep = self.create_publisher(TwistStamped, topics.SIM_LOCKSTEP, COMMAND_QOS)
+            self.create_subscription(PhospheneFrame, topics.SPV_FRAME, self.on_spv_frame, SENSOR_QOS)
+        else:
+            self._start_timers(p)
         self.publish_global_costmap()
         self.get_logger().info(f"building map from {p['map'] or p['world']} ({grid.shape[1]}x{grid.shape[0]} cells at "
                                f"{grid.resolution} m), goal {p['goal_name'] or ''} {np.round(goal, 2).tolist()}, "
@@ -149,7 +149,7 @@ class PlannerNode(RaspvNode):
         self.assistant.goal = np.asarray(goal, dtype=float)[:2]
         self.assistant.config.max_relocation = merged["max_relocation"]
         self.assistant.planner.max_relocation = merged["max_relocation"]
-        if {"replan_rate", "control_rate", "costmap_rate"} & set(changes):
+        if {"replan_rate", "control_rate", "costmap_rate"} & set(changes) and not self.lockstep:
             self._start_timers(merged)
         if "goal" in changes or "goal_name" in changes:
             self._goal_reached_logged = False
@@ -172,6 +172,9 @@ class PlannerNode(RaspvNode):
         self.odom_velocity = (float(v), float(w)) if math.isfinite(v) and math.isfinite(w) else (0.0, 0.0)
         self.frame_id = msg.header.frame_id or self.frame_id
         self.assistant.set_subject(stamp_to_seconds(msg.header.stamp), *planar_pose(T, axis=0))
+        if self.lockstep:
+            self._lock_in["odom"] = max(self._lock_in["odom"], stamp_to_seconds(msg.header.stamp))
+            self._lockstep_frame()
 
     def on_camera_pose(self, msg: PoseStamped) -> None:
         stamp = stamp_to_seconds(msg.header.stamp)
@@ -186,11 +189,18 @@ class PlannerNode(RaspvNode):
             x, y, yaw = planar_pose(T, axis=2)
             self.velocity_estimator.add(stamp, x, y, yaw)
             self.assistant.set_subject(stamp, x, y, yaw)
+        if self.lockstep:
+            self._lockstep_frame()
+            return
         if self.pending_depth is not None and self.pending_depth[0] <= stamp:
             pending, self.pending_depth = self.pending_depth, None
             self._add_depth(*pending)
 
     def on_depth(self, msg: Image) -> None:
+        if self.lockstep:
+            self._lock_depth = (stamp_to_seconds(msg.header.stamp), msg)
+            self._lockstep_frame()
+            return
         if not self.params["use_camera_obstacles"] or self.intrinsics is None:
             return
         depth = self.read_depth(msg)
@@ -212,6 +222,43 @@ class PlannerNode(RaspvNode):
         t0 = time.perf_counter()
         self.assistant.add_depth(depth, self.intrinsics, pose, stamp)
         self.timings["depth"].append(1e3 * (time.perf_counter() - t0))
+
+    # -- lockstep ----------------------------------------------------------------------------
+    def on_spv_frame(self, msg: PhospheneFrame) -> None:
+        self._lock_in["spv"] = max(self._lock_in["spv"], stamp_to_seconds(msg.source_stamp))
+        self._lockstep_frame()
+
+    def on_camera_info(self, msg: CameraInfo) -> None:
+        super().on_camera_info(msg)
+        if self.lockstep:
+            self._lockstep_frame()
+
+    def _lockstep_frame(self) -> None:
+        """Handle the waiting frame once all of it is in (see the module docstring), then answer it."""
+        if self._lock_depth is None:
+            return
+        stamp, msg = self._lock_depth
+        latest = self.camera_poses.latest()
+        need_odom = self.params["pose_source"] != "camera"
+        if (latest is None or latest.stamp < stamp - 1e-6 or self._lock_in["spv"] < stamp - 1e-6
+                or (need_odom and self._lock_in["odom"] < stamp - 1e-6)
+                or (self.params["use_camera_obstacles"] and self.intrinsics is None)):
+            return
+        self._lock_depth = None
+        if self.params["use_camera_obstacles"]:
+            depth = self.read_depth(msg)
+            if depth is not None:
+                self._add_depth(stamp, depth)
+        p, last = self.params, self._lock_last
+        for name, rate, action in (("replan", p["replan_rate"], self.replan), ("control", p["control_rate"], self.control),
+                                   ("costmap", p["costmap_rate"], self.publish_costmaps)):
+            if rate > 0 and stamp - last[name] >= 1.0 / rate - 1e-6:
+                last[name] = stamp
+                action()
+        answer = TwistStamped()
+        answer.header.stamp = msg.header.stamp
+        answer.header.frame_id = "planner"
+        self.pub_lockstep.publish(answer)
 
     # -- outputs -----------------------------------------------------------------------------
     def replan(self) -> None:

@@ -38,4 +38,8 @@ PARAMS = [
           dynamic=False),
     Param("proximity_range", 1.5, "obstacles ahead nearer than this are reported for the proximity cue", minimum=0.2,
           maximum=5.0, unit="m", dynamic=False),
+    Param("lockstep", False, "scripted subjects in a lockstep simulator: no timers — each frame (its depth, camera "
+          "pose, odometry and the /spv/frame made from it) updates the costmap and replans at replan_rate of frame "
+          "time, then the path goes out and the frame is answered on /sim/lockstep (frame_id planner), so the "
+          "phosphenes of the next frame show it in every run", dynamic=False),
 ]

@@ -2,12 +2,14 @@
 
 A run directory ``<log_dir>/<world>-<YYYYmmdd-HHMMSS>/`` (or ``<log_dir>/<run_name>/``) holds
 
-- ``meta.json``       world (name and file), start time, configuration, goals — written at start;
-- ``trajectory.csv``  base and head at a fixed rate: ``t`` [s since start], base ``x, y, z`` [m, W],
+- ``meta.json``       world (name and file), start time, ``sim_time_at_start`` [s] (the
+  simulator's clock when the log started), configuration, goals — written at start;
+- ``trajectory.csv``  base and head at a fixed rate: ``t`` [s since the log started, sim time],
+  base ``x, y, z`` [m, W],
   ``yaw`` [rad], head ``roll, pitch, yaw`` relative to the base [rad], camera position in W [m],
   commanded ``linear`` [m/s] and ``angular`` [rad/s], cumulative ``path_length`` [m];
 - ``events.jsonl``    one JSON object per line: ``collision`` (object name and class, contact
-  point, normal, speed, count) and ``goal`` (name) events with their time ``t``;
+  point, normal, speed, count) and ``goal`` (name) events with their time ``t`` (since the start);
 - ``summary.json`` and ``trajectory.png`` — written when the run ends, and rebuilt from the
   files above by :func:`summarize_run` / ``raspv sim plot RUN_DIR`` after a killed run.
 
@@ -51,7 +53,7 @@ class ExperimentLog:
     """Writes one run. ``rate`` [Hz] is the trajectory sampling rate (sim time)."""
 
     def __init__(self, log_dir: str | Path, world_name: str, meta: dict[str, Any], rate: float = 10.0,
-                 run_name: str | None = None):
+                 run_name: str | None = None, t0: float = 0.0):
         if not rate > 0:
             raise ValueError(f"trajectory rate must be positive, got {rate}")
         self.rate = float(rate)
@@ -61,13 +63,14 @@ class ExperimentLog:
         name = run_name or f"{world_name}-{stamp}"        # run_name: the caller's folder name
         run = base / name
         k = 1
-        while run.exists():
+        while (run / "trajectory.csv").exists() or (run.exists() and not run.is_dir()):   # another run's: a new one
             k += 1
             run = base / f"{name}-{k}"
-        run.mkdir()
+        run.mkdir(exist_ok=True)                          # (a folder a recorder started in first is this run's)
         self.dir = run
+        self.t0 = float(t0)                              # sim time [s] of the start: times are relative to it
         info = {"world": world_name, "started": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
-                "trajectory_rate_hz": self.rate, **meta}
+                "sim_time_at_start": self.t0, "trajectory_rate_hz": self.rate, **meta}
         (run / "meta.json").write_text(json.dumps(info, indent=2, default=str) + "\n")
         self._traj: TextIO = open(run / "trajectory.csv", "w", newline="", buffering=1)
         self._csv = csv.writer(self._traj)
@@ -83,7 +86,9 @@ class ExperimentLog:
         if self.closed or (not force and s.t + 1e-9 < self._next_t) or s.t <= self._last_t:
             return False
         self._last_t = s.t
-        self._csv.writerow([f"{v:.4f}" if isinstance(v, float) else v for v in asdict(s).values()])
+        row = asdict(s)
+        row["t"] = s.t - self.t0
+        self._csv.writerow([f"{v:.4f}" if isinstance(v, float) else v for v in row.values()])
         self._traj.flush()
         self._next_t = (math.floor(s.t * self.rate + 1e-6) + 1) / self.rate
         return True
@@ -95,12 +100,12 @@ class ExperimentLog:
         self._events.flush()
 
     def collision(self, e: CollisionEvent) -> None:
-        self._event({"t": round(e.t, 4), "event": "collision", "name": e.name, "class": e.cls,
+        self._event({"t": round(e.t - self.t0, 4), "event": "collision", "name": e.name, "class": e.cls,
                      "position": [round(v, 4) for v in e.position], "normal": [round(v, 4) for v in e.normal],
                      "speed": round(e.speed, 4), "count": e.count})
 
     def goal(self, name: str, t: float) -> None:
-        self._event({"t": round(t, 4), "event": "goal", "name": name})
+        self._event({"t": round(t - self.t0, 4), "event": "goal", "name": name})
 
     def close(self) -> dict[str, Any]:
         """Close the files and write ``summary.json``; returns the summary."""
@@ -143,6 +148,15 @@ def read_events(run_dir: str | Path) -> list[dict[str, Any]]:
     return out
 
 
+def sim_time_at_start(run_dir: str | Path) -> float:
+    """The simulator's clock [s] when the log started (0 for logs from before it was recorded, whose
+    times were the simulator's clock)."""
+    try:
+        return float(json.loads((Path(run_dir) / "meta.json").read_text()).get("sim_time_at_start", 0.0))
+    except (OSError, ValueError):
+        return 0.0
+
+
 def summarize_run(run_dir: str | Path) -> dict[str, Any]:
     """Summary of a run from its files (also after a kill); written to ``summary.json``."""
     run_dir = Path(run_dir)
@@ -156,7 +170,7 @@ def summarize_run(run_dir: str | Path) -> dict[str, Any]:
         by_class[e["class"]] = by_class.get(e["class"], 0) + 1
     summary = {
         "world": meta.get("world"),
-        "duration_s": traj["t"][-1] if traj["t"] else 0.0,
+        "duration_s": round(traj["t"][-1] - traj["t"][0], 4) if traj["t"] else 0.0,
         "path_length_m": traj["path_length"][-1] if traj["path_length"] else 0.0,
         "samples": len(traj["t"]),
         "collisions": len(collisions),

@@ -1,4 +1,4 @@
-"""A world's 2-D occupancy map for planners (map_server PGM + YAML via :mod:`raspv_nav.occupancy`).
+"""A world's 2-D occupancy map for planners (map_server PGM + YAML via :mod:`raspv_common.occupancy`).
 
 A cell (``resolution`` m square, W frame, row 0 at the smallest y) is
 
@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pybullet
 
-from raspv_nav.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from raspv_common.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from raspv_sim.world_builder import BuiltWorld
 
 BORDER = 0.5          # m of unknown cells around the floor

@@ -74,7 +74,7 @@ def _check(args) -> int:
 
 
 def _map(args) -> int:
-    from raspv_nav.occupancy import FREE, OCCUPIED, save_map
+    from raspv_common.occupancy import FREE, OCCUPIED, save_map
     from raspv_sim.occupancy_export import world_occupancy
     from raspv_sim.simulator import SimConfig, Simulation
 

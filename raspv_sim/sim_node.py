@@ -10,6 +10,10 @@ Experiments: ``/clock`` carries the simulation time; the services ``/sim/start_t
 ``/sim/end_trial`` (raspv_msgs/srv) put the avatar at a start pose and log one trial; with
 ``step_mode: lockstep`` the world steps when a controller answers the last frame on
 ``/sim/lockstep`` (:mod:`raspv_sim.lockstep`), stamped in sim time; ``paused`` holds the world.
+With ``lockstep_hold`` the world steps only while a trial runs: from ``/sim/start_trial`` with a
+log until the trial's goal region is reached or its ``time_limit`` has passed, so every trial
+ends on the same frame and nothing happens between trials (no frames, only ``/clock`` and
+``/odom`` repeated twice a second so late subscribers see where the world holds).
 """
 from __future__ import annotations
 
@@ -95,14 +99,18 @@ class SimNode(RaspvNode):
                           self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf
+        self.head: tuple[float, float, float, float] | None = None     # the last head orientation received
         self.last_tick: float | None = None
         self.timings = {"step": 0.0, "render": 0.0, "publish": 0.0, "frames": 0}
         self.pub_clock = self.create_publisher(Clock, topics.CLOCK, COMMAND_QOS)
         self.create_service(StartTrial, topics.SIM_START_TRIAL, self.on_start_trial)
         self.create_service(EndTrial, topics.SIM_END_TRIAL, self.on_end_trial)
         self.lockstep: Lockstep | None = None
+        self.trial_end: float | None = None        # lockstep_hold: sim time at which the running trial holds
+        self._held_repeat = 0.0                   # wall time [s] /clock and /odom were last repeated while held
         if p["step_mode"] == "lockstep":
-            self.lockstep = Lockstep(p["lockstep_timeout"])
+            self.lockstep = Lockstep(p["lockstep_timeout"], frozenset(x for x in p["lockstep_participants"] if x))
+            self.lockstep.hold = bool(p["lockstep_hold"])
             self.create_subscription(TwistStamped, topics.SIM_LOCKSTEP, self.on_lockstep, COMMAND_QOS)
             self.create_timer(0.02, self.lockstep_poll)
         else:
@@ -127,6 +135,7 @@ class SimNode(RaspvNode):
         q = msg.quaternion
         try:
             self.sim.set_head((q.x, q.y, q.z, q.w))
+            self.head = (q.x, q.y, q.z, q.w)
         except ValueError as exc:
             self.warn_throttled("head", f"ignoring /head/orientation: {exc}")
 
@@ -135,15 +144,27 @@ class SimNode(RaspvNode):
         if not (math.isfinite(v) and math.isfinite(w)):
             self.warn_throttled("lockstep", f"ignoring /sim/lockstep with non-finite values ({v}, {w})")
             return
-        if self.lockstep.answer(stamp_to_seconds(msg.header.stamp), v, w):
+        if self.lockstep.answer(stamp_to_seconds(msg.header.stamp), v, w, msg.header.frame_id):
             self.lockstep_poll()
 
     def lockstep_poll(self) -> None:
-        """Step when the last frame was answered (or its answer is late), unless paused."""
-        if self.params["paused"] or not self.lockstep.poll(time.monotonic()):
+        """Step when the last frame was answered (or its answer is late), unless paused or held."""
+        now = time.monotonic()
+        if self.lockstep.hold:
+            if now - self._held_repeat >= 0.5:          # where the world holds, for late subscribers
+                self._held_repeat = now
+                self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
+                header = self.header("world", self.sim.t)
+                self.pub_odom.publish(self.odometry(header))
             return
-        self.tick(1.0 / self.params["rate"], self.lockstep.take())
+        if self.params["paused"] or not self.lockstep.poll(now):
+            return
+        report = self.tick(1.0 / self.params["rate"], self.lockstep.take())
         self.lockstep.published(self.sim.t, time.monotonic())
+        if self.params["lockstep_hold"] and self.trial_end is not None and (
+                self.sim.t >= self.trial_end - 1e-6
+                or any(g.name in report.goals_reached for g in self.sim.trial_goals)):
+            self.lockstep.hold, self.trial_end = True, None      # the trial ended on this frame: hold
 
     # -- trials (experiments) -------------------------------------------------------------------
     def on_start_trial(self, req: StartTrial.Request, res: StartTrial.Response) -> StartTrial.Response:
@@ -157,6 +178,10 @@ class SimNode(RaspvNode):
         self.cmd = (0.0, 0.0)
         if self.lockstep is not None:
             self.lockstep.command = (0.0, 0.0)
+            if self.params["lockstep_hold"]:
+                self.lockstep.hold, self.trial_end = True, None
+                if self.head is not None:       # a scripted subject holds its head as before: its first frame too
+                    self.sim.set_head(self.head)
         if self.sim.log is not None:
             self.sim.finish_log(plot=False)
         if req.log_dir:
@@ -167,12 +192,19 @@ class SimNode(RaspvNode):
                 res.success, res.message = False, f"cannot write the trial log to '{req.log_dir}': {exc.strerror}"
                 return res
             res.run_dir = str(log.dir)
+            if self.lockstep is not None and self.params["lockstep_hold"]:
+                # the trial runs from the next frame (with no command) to its goal or time limit
+                self.trial_end = self.sim.t + req.time_limit if req.time_limit > 0 else float("inf")
+                self.lockstep.restart()
+                self.lockstep.hold = False
         res.success, res.sim_time = True, float(self.sim.t)
         self.get_logger().info(f"trial {req.run_name or ''} starts at ({req.x:.2f}, {req.y:.2f}), "
                                f"yaw {math.degrees(req.yaw):.0f} deg, t = {self.sim.t:.2f} s")
         return res
 
     def on_end_trial(self, req: EndTrial.Request, res: EndTrial.Response) -> EndTrial.Response:
+        if self.lockstep is not None and self.params["lockstep_hold"]:
+            self.lockstep.hold, self.trial_end = True, None
         res.success, res.sim_time = True, float(self.sim.t)
         if self.sim.log is not None:
             summary, _ = self.sim.finish_log(plot=req.plot)
@@ -213,7 +245,7 @@ class SimNode(RaspvNode):
                 sub.callback(taken[0])
 
     # -- the loop -------------------------------------------------------------------------------
-    def tick(self, dt: float | None = None, command: tuple[float, float] | None = None) -> None:
+    def tick(self, dt: float | None = None, command: tuple[float, float] | None = None):
         """Step (by the wall clock, or ``dt`` s with ``command`` in lockstep), render, publish."""
         self.take_commands()
         t0 = time.monotonic()
@@ -233,9 +265,9 @@ class SimNode(RaspvNode):
         self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
         header = self.header(self.params["frame_id"], stamp)
         self.camera_info.header = header
+        self.pub_info.publish(self.camera_info)          # before the images: a node's first image finds it
         self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
         self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))
-        self.pub_info.publish(self.camera_info)
         if not getattr(self, "_first_frame_logged", False):   # the start of a recording is checked against it
             self._first_frame_logged = True
             h = header.stamp
@@ -255,6 +287,7 @@ class SimNode(RaspvNode):
         for key, value in (("step", t1 - t0), ("render", t2 - t1), ("publish", t3 - t2)):
             self.timings[key] += value
         self.timings["frames"] += 1
+        return report
 
     def odometry(self, header) -> Odometry:
         a = self.sim.avatar

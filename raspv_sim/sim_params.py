@@ -44,6 +44,11 @@ PARAMS = [
           choices=("realtime", "lockstep"), dynamic=False),
     Param("lockstep_timeout", 2.0, "lockstep: step anyway when no answer came for this long", minimum=0.05,
           maximum=60.0, dynamic=False, unit="s"),
+    Param("lockstep_hold", False, "lockstep: the world steps only while a trial runs — from /sim/start_trial with a "
+          "log until its goal is reached or its time limit has passed — and holds before, between and after trials, "
+          "so every node sees the same frames each time a session runs (scripted subjects, sweeps)", dynamic=False),
+    Param("lockstep_participants", [], "lockstep: further nodes that answer every frame on /sim/lockstep "
+          "(frame_id = their name) before the world steps, e.g. planner", dynamic=False),
     Param("paused", False, "hold the world: no time passes and nothing moves (realtime: frames keep coming)"),
     Param("log_rate", 10.0, "trajectory samples per second in the log", minimum=0.5, maximum=100.0, dynamic=False, unit="Hz"),
 ]

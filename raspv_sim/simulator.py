@@ -150,7 +150,7 @@ class Simulation:
                 "depth_sensor": None if c.depth_sensor is None else
                 {k: getattr(c.depth_sensor, k) for k in c.depth_sensor.__dataclass_fields__},
                 **(extra or {})}
-        self.log = ExperimentLog(log_dir, s.name, meta, rate, run_name)
+        self.log = ExperimentLog(log_dir, s.name, meta, rate, run_name, t0=self.t)
         self.log.sample(self.trajectory_sample(), force=True)
         return self.log
 

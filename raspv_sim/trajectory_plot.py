@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 
-from raspv_nav.occupancy import FREE, OCCUPIED, OccupancyGrid  # noqa: E402
+from raspv_common.occupancy import FREE, OCCUPIED, OccupancyGrid  # noqa: E402
 from raspv_sim.experiment_log import read_events, read_trajectory, summarize_run  # noqa: E402
 
 

@@ -5,17 +5,18 @@ then builds the world in a throwaway headless PyBullet client exactly as the sim
 every mesh, URDF and SDF it names is loaded by PyBullet, people are created, the avatar is
 placed at the spawn point — so a file the launch would fail on fails here, with the same
 one-line :class:`~raspv_sim.world_spec.WorldFileError`. OBJ meshes must also be text with
-vertices and faces (PyBullet silently loads a binary or empty file as nothing). No rclpy.
+finite vertices and faces that name existing vertices (PyBullet silently loads a binary or
+empty file as nothing, and a NaN vertex or a face index past the vertex count without a
+word). No rclpy.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from raspv_common.text_files import read_text_file
 from raspv_sim.world_spec import WorldFileError, WorldSpec, display_path
 
-_OBJ_VERTEX = ("v ", "v\t")
-_OBJ_FACE = ("f ", "f\t")
 
 
 def check_world(world: str) -> WorldSpec:
@@ -45,8 +46,42 @@ def check_world(world: str) -> WorldSpec:
 
 def _check_obj_text(path: Path, where: str) -> None:
     """A Wavefront OBJ is text with vertices and faces; PyBullet loads a binary or empty file
-    as an empty mesh without a word, so such a file is refused here."""
+    as an empty mesh without a word, and a NaN vertex or a face naming a vertex that does not
+    exist without a warning either, so such files are refused here (the first fault, with its
+    line). Face indices are 1-based, negative ones count back from the last vertex so far."""
     text = read_text_file(path, "Wavefront OBJ mesh", lambda message: WorldFileError(where + message))
-    lines = [line.lstrip() for line in text.splitlines()]
-    if not any(line.startswith(_OBJ_VERTEX) for line in lines) or not any(line.startswith(_OBJ_FACE) for line in lines):
-        raise WorldFileError(f"{where}{display_path(path)}: not a Wavefront OBJ mesh (no 'v' vertex and 'f' face lines)")
+    shown = f"{where}{display_path(path)}"
+    vertices = faces = 0
+    highest = (0, 0)                       # (largest positive face index, its line)
+    for number, line in enumerate(text.splitlines(), 1):
+        parts = line.split()
+        if not parts or parts[0] not in ("v", "f"):
+            continue
+        if parts[0] == "v":
+            try:
+                xyz = [float(x) for x in parts[1:4]]
+            except ValueError:
+                raise WorldFileError(f"{shown}: line {number}: vertex '{line.strip()[:60]}' is not three numbers") from None
+            if len(xyz) < 3:
+                raise WorldFileError(f"{shown}: line {number}: vertex '{line.strip()[:60]}' has fewer than three coordinates")
+            if not all(math.isfinite(x) for x in xyz):
+                raise WorldFileError(f"{shown}: line {number}: vertex {vertices + 1} is not finite ({' '.join(parts[1:4])})")
+            vertices += 1
+            continue
+        if len(parts) < 4:
+            raise WorldFileError(f"{shown}: line {number}: a face needs at least three vertices, got '{line.strip()[:60]}'")
+        for ref in parts[1:]:
+            try:
+                index = int(ref.split("/")[0])
+            except ValueError:
+                raise WorldFileError(f"{shown}: line {number}: face vertex '{ref}' is not an index") from None
+            if index == 0 or -index > vertices:
+                raise WorldFileError(f"{shown}: line {number}: face index {index} names no vertex "
+                                     f"({vertices} vertices before it; indices start at 1)")
+            if index > highest[0]:
+                highest = (index, number)
+        faces += 1
+    if not vertices or not faces:
+        raise WorldFileError(f"{shown}: not a Wavefront OBJ mesh (no 'v' vertex and 'f' face lines)")
+    if highest[0] > vertices:
+        raise WorldFileError(f"{shown}: line {highest[1]}: face index {highest[0]} is past the vertex count ({vertices})")

@@ -9,6 +9,7 @@ The format is documented in ``docs/sim.md``.
 """
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import re
@@ -49,7 +50,13 @@ COLOR_NAMES = {
 
 
 class WorldFileError(ValueError):
-    """A world file that cannot be used; the message is one line naming the entry and the fault."""
+    """A world file that cannot be used. ``errors``: one line per mistake, each naming the file,
+    the entry and the fault (a world is checked entry by entry, so every broken entry is
+    reported, not only the first); ``str()`` joins them with newlines."""
+
+    def __init__(self, message: str, errors: list[str] | None = None) -> None:
+        self.errors = list(errors) if errors else [message]
+        super().__init__("\n".join(self.errors))
 
 
 Vec2 = tuple[float, float]
@@ -224,6 +231,28 @@ def _fmt(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _did_you_mean(key: Any, allowed: set[str]) -> str:
+    close = difflib.get_close_matches(str(key), sorted(allowed), n=1, cutoff=0.6)
+    return f"; '{key}': did you mean '{close[0]}'?" if close else ""
+
+
+class _Mistakes:
+    """The mistakes of a world file, one per entry: ``with mistakes:`` around one entry's checks
+    records its first mistake and goes on with the next entry."""
+
+    def __init__(self) -> None:
+        self.errors: list[str] = []
+
+    def __enter__(self) -> "_Mistakes":
+        return self
+
+    def __exit__(self, kind, exc, tb) -> bool:
+        if isinstance(exc, WorldFileError):
+            self.errors.extend(exc.errors)
+            return True
+        return False
+
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -241,9 +270,11 @@ class _Entry:
         raise WorldFileError(f"{self.src}: {self.where}: {problem}")
 
     def keys(self, allowed: set[str]) -> None:
-        for key in self.data:
-            if key not in allowed:
-                self.fail(f"unknown key '{key}' (allowed: {', '.join(sorted(allowed))})")
+        unknown = [key for key in self.data if key not in allowed]
+        if unknown:
+            named = ", ".join(f"'{k}'" for k in unknown)
+            hints = "".join(_did_you_mean(k, allowed) for k in unknown)
+            self.fail(f"unknown key{'s' if len(unknown) > 1 else ''} {named} (allowed: {', '.join(sorted(allowed))}){hints}")
 
     def get(self, key: str, default: Any = _REQUIRED) -> Any:
         if key in self.data and self.data[key] is not None:
@@ -349,10 +380,13 @@ def load_world(world: str | Path) -> WorldSpec:
 
 
 def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> WorldSpec:
-    """Validate the parsed YAML ``data`` of a world file (``src`` labels the errors)."""
+    """Validate the parsed YAML ``data`` of a world file (``src`` labels the errors). Every entry
+    is checked; :class:`WorldFileError` lists the first mistake of each broken entry."""
     top = _Entry(data, "top level", src)
-    top.keys({"name", "description", "floor", "defaults", "rooms", "walls", "furniture", "models", "stairs",
-              "people", "goals", "spawn", "light"})
+    mistakes = _Mistakes()
+    with mistakes:
+        top.keys({"name", "description", "floor", "defaults", "rooms", "walls", "furniture", "models", "stairs",
+                  "people", "goals", "spawn", "light"})
     base_dir = path.parent if path is not None else Path.cwd()
     classes: list[str] = list(BUILTIN_CLASSES)
     names: dict[str, str] = {}
@@ -370,24 +404,31 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
             classes.append(cls)
         return cls
 
-    name = top.string("name", path.stem if path is not None else "world")
-    description = top.get("description", "")
-    if not isinstance(description, str):
-        top.fail(f"'description' must be a string, got {_fmt(description)}")
+    name, description = path.stem if path is not None else "world", ""
+    with mistakes:
+        name = top.string("name", name)
+    with mistakes:
+        description = top.get("description", "")
+        if not isinstance(description, str):
+            top.fail(f"'description' must be a string, got {_fmt(description)}")
 
-    d = _Entry(top.get("defaults", {}), "defaults", src)
-    d.keys({"wall_height", "wall_thickness", "wall_color", "door_height"})
-    wall_height = d.number("wall_height", 2.5, positive=True)
-    wall_thickness = d.number("wall_thickness", 0.12, positive=True)
-    wall_color = d.color("wall_color", (0.88, 0.86, 0.8))
-    door_height = d.number("door_height", 2.05, positive=True)
+    wall_height, wall_thickness, wall_color, door_height = 2.5, 0.12, (0.88, 0.86, 0.8), 2.05
+    with mistakes:
+        d = _Entry(top.get("defaults", {}), "defaults", src)
+        d.keys({"wall_height", "wall_thickness", "wall_color", "door_height"})
+        wall_height = d.number("wall_height", wall_height, positive=True)
+        wall_thickness = d.number("wall_thickness", wall_thickness, positive=True)
+        wall_color = d.color("wall_color", wall_color)
+        door_height = d.number("door_height", door_height, positive=True)
 
-    f = _Entry(top.get("floor"), "floor", src)
-    f.keys({"from", "to", "color"})
-    lo, hi = f.vector("from", (2,)), f.vector("to", (2,))
-    if not (hi[0] > lo[0] and hi[1] > lo[1]):
-        f.fail(f"'to' {list(hi)} must be above and right of 'from' {list(lo)} (x and y larger)")
-    floor = FloorSpec(lo, hi, f.color("color", (0.72, 0.66, 0.58)))
+    floor: FloorSpec | None = None
+    with mistakes:
+        f = _Entry(top.get("floor"), "floor", src)
+        f.keys({"from", "to", "color"})
+        lo, hi = f.vector("from", (2,)), f.vector("to", (2,))
+        if not (hi[0] > lo[0] and hi[1] > lo[1]):
+            f.fail(f"'to' {list(hi)} must be above and right of 'from' {list(lo)} (x and y larger)")
+        floor = FloorSpec(lo, hi, f.color("color", (0.72, 0.66, 0.58)))
 
     def parse_doors(entry: _Entry, length: float, height: float) -> tuple[DoorOpening, ...]:
         doors = []
@@ -412,156 +453,177 @@ def parse_world(data: Any, src: str = "<world>", path: Path | None = None) -> Wo
         return tuple(doors)
 
     walls: list[WallSpec] = []
-    for i, raw in enumerate(top.sequence("rooms")):
-        e = _Entry(raw, f"rooms[{i}]", src)
-        rname = e.string("name", f"room{i}")
-        e.where = f"rooms[{i}] ('{rname}')"
-        e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "open", "class"})
-        rlo, rhi = e.vector("from", (2,)), e.vector("to", (2,))
-        if not (rhi[0] > rlo[0] and rhi[1] > rlo[1]):
-            e.fail(f"'to' {list(rhi)} must be above and right of 'from' {list(rlo)} (x and y larger)")
-        height = e.number("height", wall_height, positive=True)
-        thick = e.number("thickness", wall_thickness, positive=True)
-        color = e.color("color", wall_color)
-        cls = label(e, "wall")
-        sides = {"south": ((rlo[0], rlo[1]), (rhi[0], rlo[1])), "east": ((rhi[0], rlo[1]), (rhi[0], rhi[1])),
-                 "north": ((rlo[0], rhi[1]), (rhi[0], rhi[1])), "west": ((rlo[0], rlo[1]), (rlo[0], rhi[1]))}
-        open_sides = e.get("open", [])
-        if not isinstance(open_sides, list) or any(s not in sides for s in open_sides):
-            e.fail(f"'open' must be a list of sides (south, east, north, west), got {_fmt(open_sides)}")
-        side_doors: dict[str, list] = {s: [] for s in sides}
-        for j, raw_door in enumerate(e.sequence("doors")):
-            de = _Entry(raw_door, f"{e.where}: doors[{j}]", src)
-            side = de.string("wall", choices=tuple(sides))
-            if side in open_sides:
-                de.fail(f"side '{side}' is open, it has no wall to put a door in")
-            side_doors[side].append({k: v for k, v in raw_door.items() if k != "wall"})
-        for side, (a, b) in sides.items():
-            if side in open_sides:
-                continue
-            wname = f"{rname}/{side}"
-            claim(wname, e.where, e)
-            length = math.hypot(b[0] - a[0], b[1] - a[1])
-            sub = _Entry({"doors": side_doors[side]}, f"{e.where}: {side} wall", src)
-            walls.append(WallSpec(wname, cls, a, b, height, thick, color, parse_doors(sub, length, height), e.where))
+    for i, raw in enumerate(_sequence(top, "rooms", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"rooms[{i}]", src)
+            rname = e.string("name", f"room{i}")
+            e.where = f"rooms[{i}] ('{rname}')"
+            e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "open", "class"})
+            rlo, rhi = e.vector("from", (2,)), e.vector("to", (2,))
+            if not (rhi[0] > rlo[0] and rhi[1] > rlo[1]):
+                e.fail(f"'to' {list(rhi)} must be above and right of 'from' {list(rlo)} (x and y larger)")
+            height = e.number("height", wall_height, positive=True)
+            thick = e.number("thickness", wall_thickness, positive=True)
+            color = e.color("color", wall_color)
+            cls = label(e, "wall")
+            sides = {"south": ((rlo[0], rlo[1]), (rhi[0], rlo[1])), "east": ((rhi[0], rlo[1]), (rhi[0], rhi[1])),
+                     "north": ((rlo[0], rhi[1]), (rhi[0], rhi[1])), "west": ((rlo[0], rlo[1]), (rlo[0], rhi[1]))}
+            open_sides = e.get("open", [])
+            if not isinstance(open_sides, list) or any(s not in sides for s in open_sides):
+                e.fail(f"'open' must be a list of sides (south, east, north, west), got {_fmt(open_sides)}")
+            side_doors: dict[str, list] = {s: [] for s in sides}
+            for j, raw_door in enumerate(e.sequence("doors")):
+                de = _Entry(raw_door, f"{e.where}: doors[{j}]", src)
+                side = de.string("wall", choices=tuple(sides))
+                if side in open_sides:
+                    de.fail(f"side '{side}' is open, it has no wall to put a door in")
+                side_doors[side].append({k: v for k, v in raw_door.items() if k != "wall"})
+            for side, (a, b) in sides.items():
+                if side in open_sides:
+                    continue
+                wname = f"{rname}/{side}"
+                claim(wname, e.where, e)
+                length = math.hypot(b[0] - a[0], b[1] - a[1])
+                sub = _Entry({"doors": side_doors[side]}, f"{e.where}: {side} wall", src)
+                walls.append(WallSpec(wname, cls, a, b, height, thick, color, parse_doors(sub, length, height), e.where))
 
-    for i, raw in enumerate(top.sequence("walls")):
-        e = _Entry(raw, f"walls[{i}]", src)
-        wname = e.string("name", f"wall{i}")
-        e.where = f"walls[{i}] ('{wname}')"
-        e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "class"})
-        a, b = e.vector("from", (2,)), e.vector("to", (2,))
-        length = math.hypot(b[0] - a[0], b[1] - a[1])
-        if length < 1e-6:
-            e.fail("'from' and 'to' are the same point")
-        height = e.number("height", wall_height, positive=True)
-        claim(wname, e.where, e)
-        walls.append(WallSpec(wname, label(e, "wall"), a, b, height, e.number("thickness", wall_thickness, positive=True),
-                              e.color("color", wall_color), parse_doors(e, length, height), e.where))
+    for i, raw in enumerate(_sequence(top, "walls", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"walls[{i}]", src)
+            wname = e.string("name", f"wall{i}")
+            e.where = f"walls[{i}] ('{wname}')"
+            e.keys({"name", "from", "to", "height", "thickness", "color", "doors", "class"})
+            a, b = e.vector("from", (2,)), e.vector("to", (2,))
+            length = math.hypot(b[0] - a[0], b[1] - a[1])
+            if length < 1e-6:
+                e.fail("'from' and 'to' are the same point")
+            height = e.number("height", wall_height, positive=True)
+            claim(wname, e.where, e)
+            walls.append(WallSpec(wname, label(e, "wall"), a, b, height, e.number("thickness", wall_thickness, positive=True),
+                                  e.color("color", wall_color), parse_doors(e, length, height), e.where))
 
     furniture: list[FurnitureSpec] = []
-    for i, raw in enumerate(top.sequence("furniture")):
-        e = _Entry(raw, f"furniture[{i}]", src)
-        kind = e.string("type", choices=FURNITURE_TYPES)
-        e.where = f"furniture[{i}] ({kind})"
-        fname = e.string("name", f"{kind}{i}")
-        if "name" in e.data:
-            e.where = f"furniture[{i}] ({kind} '{fname}')"
-        e.keys({"type", "name", "position", "yaw", "size", "color", "class", "specular", "open", "shelves"})
-        pos = e.vector("position", (2, 3))
-        size = e.vector("size", (3,), FURNITURE_DEFAULT_SIZE[kind], positive=True)
-        claim(fname, e.where, e)
-        furniture.append(FurnitureSpec(
-            fname, label(e, FURNITURE_DEFAULT_CLASS.get(kind, kind)), kind, (pos[0], pos[1], pos[2] if len(pos) == 3 else 0.0),
-            e.number("yaw", 0.0), size, e.color("color", FURNITURE_DEFAULT_COLOR[kind]), e.boolean("specular", False),
-            e.number("open", 0.0, minimum=-180.0, maximum=180.0) if kind == "door" else 0.0,
-            e.integer("shelves", 4, minimum=1, maximum=20) if kind == "shelf" else 4, e.where))
-        if kind != "door" and "open" in e.data:
-            e.fail("'open' applies to doors only")
-        if kind != "shelf" and "shelves" in e.data:
-            e.fail("'shelves' applies to shelves only")
+    for i, raw in enumerate(_sequence(top, "furniture", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"furniture[{i}]", src)
+            kind = e.string("type", choices=FURNITURE_TYPES)
+            e.where = f"furniture[{i}] ({kind})"
+            fname = e.string("name", f"{kind}{i}")
+            if "name" in e.data:
+                e.where = f"furniture[{i}] ({kind} '{fname}')"
+            e.keys({"type", "name", "position", "yaw", "size", "color", "class", "specular", "open", "shelves"})
+            pos = e.vector("position", (2, 3))
+            size = e.vector("size", (3,), FURNITURE_DEFAULT_SIZE[kind], positive=True)
+            claim(fname, e.where, e)
+            furniture.append(FurnitureSpec(
+                fname, label(e, FURNITURE_DEFAULT_CLASS.get(kind, kind)), kind, (pos[0], pos[1], pos[2] if len(pos) == 3 else 0.0),
+                e.number("yaw", 0.0), size, e.color("color", FURNITURE_DEFAULT_COLOR[kind]), e.boolean("specular", False),
+                e.number("open", 0.0, minimum=-180.0, maximum=180.0) if kind == "door" else 0.0,
+                e.integer("shelves", 4, minimum=1, maximum=20) if kind == "shelf" else 4, e.where))
+            if kind != "door" and "open" in e.data:
+                e.fail("'open' applies to doors only")
+            if kind != "shelf" and "shelves" in e.data:
+                e.fail("'shelves' applies to shelves only")
 
     models: list[ModelSpec] = []
-    for i, raw in enumerate(top.sequence("models")):
-        e = _Entry(raw, f"models[{i}]", src)
-        mname = e.string("name", f"model{i}")
-        e.where = f"models[{i}] ('{mname}')"
-        e.keys({"name", "file", "position", "yaw", "scale", "color", "class", "collision", "up", "specular"})
-        file_text = e.string("file")
-        fpath = _resolve_model_file(file_text, base_dir)
-        kind = fpath.suffix.lower().lstrip(".")
-        if kind not in ("obj", "urdf", "sdf"):
-            e.fail(f"'file' must be an .obj mesh, a .urdf or an .sdf model, got '{file_text}'")
-        if not fpath.is_file():
-            e.fail(f"'file' {file_text} not found (looked at {fpath})")
-        pos = e.vector("position", (2, 3), (0.0, 0.0, 0.0))
-        claim(mname, e.where, e)
-        models.append(ModelSpec(mname, label(e, "obstacle"), fpath, kind,
-                                (pos[0], pos[1], pos[2] if len(pos) == 3 else 0.0), e.number("yaw", 0.0),
-                                e.number("scale", 1.0, positive=True), e.color("color", None),
-                                e.boolean("collision", True), e.string("up", "z", ("z", "y")),
-                                e.boolean("specular", False), e.where))
+    for i, raw in enumerate(_sequence(top, "models", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"models[{i}]", src)
+            mname = e.string("name", f"model{i}")
+            e.where = f"models[{i}] ('{mname}')"
+            e.keys({"name", "file", "position", "yaw", "scale", "color", "class", "collision", "up", "specular"})
+            file_text = e.string("file")
+            fpath = _resolve_model_file(file_text, base_dir)
+            kind = fpath.suffix.lower().lstrip(".")
+            if kind not in ("obj", "urdf", "sdf"):
+                e.fail(f"'file' must be an .obj mesh, a .urdf or an .sdf model, got '{file_text}'")
+            if not fpath.is_file():
+                e.fail(f"'file' {file_text} not found (looked at {fpath})")
+            pos = e.vector("position", (2, 3), (0.0, 0.0, 0.0))
+            claim(mname, e.where, e)
+            models.append(ModelSpec(mname, label(e, "obstacle"), fpath, kind,
+                                    (pos[0], pos[1], pos[2] if len(pos) == 3 else 0.0), e.number("yaw", 0.0),
+                                    e.number("scale", 1.0, positive=True), e.color("color", None),
+                                    e.boolean("collision", True), e.string("up", "z", ("z", "y")),
+                                    e.boolean("specular", False), e.where))
 
     stairs: list[StairSpec] = []
-    for i, raw in enumerate(top.sequence("stairs")):
-        e = _Entry(raw, f"stairs[{i}]", src)
-        sname = e.string("name", f"stairs{i}")
-        e.where = f"stairs[{i}] ('{sname}')"
-        e.keys({"name", "direction", "position", "yaw", "steps", "riser", "tread", "width", "landing", "color", "class"})
-        direction = e.string("direction", choices=("up", "down"))
-        riser = e.number("riser", 0.17, positive=True, maximum=0.5)
-        steps = e.integer("steps", 8, minimum=1, maximum=100)
-        yaw = e.number("yaw", 0.0)
-        if direction == "down" and abs(yaw / 90.0 - round(yaw / 90.0)) > 1e-9:
-            e.fail(f"a descending staircase's 'yaw' must be a multiple of 90 degrees (its well is cut along x and y), got {yaw:g}")
-        claim(sname, e.where, e)
-        stairs.append(StairSpec(sname, label(e, "stairs"), direction, e.vector("position", (2,)), yaw,
-                                steps, riser, e.number("tread", 0.29, positive=True), e.number("width", 1.2, positive=True),
-                                e.number("landing", 1.2, minimum=0.0), e.color("color", (0.78, 0.76, 0.72)), e.where))
+    for i, raw in enumerate(_sequence(top, "stairs", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"stairs[{i}]", src)
+            sname = e.string("name", f"stairs{i}")
+            e.where = f"stairs[{i}] ('{sname}')"
+            e.keys({"name", "direction", "position", "yaw", "steps", "riser", "tread", "width", "landing", "color", "class"})
+            direction = e.string("direction", choices=("up", "down"))
+            riser = e.number("riser", 0.17, positive=True, maximum=0.5)
+            steps = e.integer("steps", 8, minimum=1, maximum=100)
+            yaw = e.number("yaw", 0.0)
+            if direction == "down" and abs(yaw / 90.0 - round(yaw / 90.0)) > 1e-9:
+                e.fail(f"a descending staircase's 'yaw' must be a multiple of 90 degrees (its well is cut along x and y), got {yaw:g}")
+            claim(sname, e.where, e)
+            stairs.append(StairSpec(sname, label(e, "stairs"), direction, e.vector("position", (2,)), yaw,
+                                    steps, riser, e.number("tread", 0.29, positive=True), e.number("width", 1.2, positive=True),
+                                    e.number("landing", 1.2, minimum=0.0), e.color("color", (0.78, 0.76, 0.72)), e.where))
 
     people: list[PersonSpec] = []
-    for i, raw in enumerate(top.sequence("people")):
-        e = _Entry(raw, f"people[{i}]", src)
-        pname = e.string("name", f"person{i}")
-        e.where = f"people[{i}] ('{pname}')"
-        e.keys({"name", "model", "waypoints", "speed", "height", "color", "class", "phase"})
-        wps = e.get("waypoints")
-        if not (isinstance(wps, list) and len(wps) >= 2 and all(
-                isinstance(w, (list, tuple)) and len(w) == 2 and all(_is_number(x) for x in w) for w in wps)):
-            e.fail(f"'waypoints' must be a list of at least 2 [x, y] points, got {_fmt(wps)}")
-        pts = tuple((float(w[0]), float(w[1])) for w in wps)
-        if sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(pts, pts[1:] + pts[:1])) < 1e-6:
-            e.fail("'waypoints' are all the same point")
-        claim(pname, e.where, e)
-        people.append(PersonSpec(pname, label(e, "person"), e.string("model", "capsule", ("capsule", "humanoid")), pts,
-                                 e.number("speed", 1.0, minimum=0.0, maximum=5.0),
-                                 e.number("height", 1.75, minimum=0.5, maximum=2.5),
-                                 e.color("color", (0.75, 0.2, 0.2)), e.number("phase", 0.0, minimum=0.0), e.where))
+    for i, raw in enumerate(_sequence(top, "people", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"people[{i}]", src)
+            pname = e.string("name", f"person{i}")
+            e.where = f"people[{i}] ('{pname}')"
+            e.keys({"name", "model", "waypoints", "speed", "height", "color", "class", "phase"})
+            wps = e.get("waypoints")
+            if not (isinstance(wps, list) and len(wps) >= 2 and all(
+                    isinstance(w, (list, tuple)) and len(w) == 2 and all(_is_number(x) for x in w) for w in wps)):
+                e.fail(f"'waypoints' must be a list of at least 2 [x, y] points, got {_fmt(wps)}")
+            pts = tuple((float(w[0]), float(w[1])) for w in wps)
+            if sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(pts, pts[1:] + pts[:1])) < 1e-6:
+                e.fail("'waypoints' are all the same point")
+            claim(pname, e.where, e)
+            people.append(PersonSpec(pname, label(e, "person"), e.string("model", "capsule", ("capsule", "humanoid")), pts,
+                                     e.number("speed", 1.0, minimum=0.0, maximum=5.0),
+                                     e.number("height", 1.75, minimum=0.5, maximum=2.5),
+                                     e.color("color", (0.75, 0.2, 0.2)), e.number("phase", 0.0, minimum=0.0), e.where))
 
     goals: list[GoalSpec] = []
-    for i, raw in enumerate(top.sequence("goals")):
-        e = _Entry(raw, f"goals[{i}]", src)
-        e.keys({"name", "position", "radius"})
-        gname = e.string("name")
-        e.where = f"goals[{i}] ('{gname}')"
-        if any(g.name == gname for g in goals):
-            e.fail(f"goal name '{gname}' is used twice")
-        goals.append(GoalSpec(gname, e.vector("position", (2,)), e.number("radius", 0.6, positive=True)))
+    for i, raw in enumerate(_sequence(top, "goals", mistakes)):
+        with mistakes:
+            e = _Entry(raw, f"goals[{i}]", src)
+            e.keys({"name", "position", "radius"})
+            gname = e.string("name")
+            e.where = f"goals[{i}] ('{gname}')"
+            if any(g.name == gname for g in goals):
+                e.fail(f"goal name '{gname}' is used twice")
+            goals.append(GoalSpec(gname, e.vector("position", (2,)), e.number("radius", 0.6, positive=True)))
 
-    s = _Entry(top.get("spawn"), "spawn", src)
-    s.keys({"position", "yaw"})
-    spawn = s.vector("position", (2,))
-    if not (floor.lo[0] < spawn[0] < floor.hi[0] and floor.lo[1] < spawn[1] < floor.hi[1]):
-        s.fail(f"'position' {list(spawn)} is outside the floor {list(floor.lo)}..{list(floor.hi)}")
+    spawn, spawn_yaw = (0.0, 0.0), 0.0
+    with mistakes:
+        s = _Entry(top.get("spawn"), "spawn", src)
+        s.keys({"position", "yaw"})
+        spawn = s.vector("position", (2,))
+        if floor is not None and not (floor.lo[0] < spawn[0] < floor.hi[0] and floor.lo[1] < spawn[1] < floor.hi[1]):
+            s.fail(f"'position' {list(spawn)} is outside the floor {list(floor.lo)}..{list(floor.hi)}")
+        spawn_yaw = s.number("yaw", 0.0)
 
-    light = _Entry(top.get("light", {}), "light", src)
-    light.keys({"direction"})
-    light_dir = light.vector("direction", (3,), (0.4, 0.25, 1.0))
-    if math.hypot(*light_dir) < 1e-9:
-        light.fail("'direction' must not be zero")
+    light_dir = (0.4, 0.25, 1.0)
+    with mistakes:
+        light = _Entry(top.get("light", {}), "light", src)
+        light.keys({"direction"})
+        light_dir = light.vector("direction", (3,), light_dir)
+        if math.hypot(*light_dir) < 1e-9:
+            light.fail("'direction' must not be zero")
 
+    if mistakes.errors or floor is None:
+        raise WorldFileError(mistakes.errors[0], mistakes.errors)
     return WorldSpec(name, path, description, floor, tuple(walls), tuple(furniture), tuple(models), tuple(stairs),
-                     tuple(people), tuple(goals), spawn, s.number("yaw", 0.0), tuple(classes), light_dir)
+                     tuple(people), tuple(goals), spawn, spawn_yaw, tuple(classes), light_dir)
+
+
+def _sequence(top: _Entry, key: str, mistakes: _Mistakes) -> list:
+    """The list under ``key`` of the top level ([] when it is not a list: a mistake recorded)."""
+    with mistakes:
+        return top.sequence(key)
+    return []
 
 
 def _resolve_model_file(text: str, base_dir: Path) -> Path:

@@ -40,6 +40,7 @@ from raspv_spv.config import SpvConfig, spv_config
 from raspv_spv.frame_inputs import FrameInputs, check_inputs
 from raspv_spv.modes import mode_class, overlay_class
 from raspv_spv.phosphene_map import PhospheneMap
+from raspv_spv.sprite_atlas import AtlasTooLarge, SpriteAtlas, atlas_of_renderer
 from raspv_spv.renderer import Renderer
 from raspv_spv.sampling import Sampling
 from raspv_spv.sprite_models import build_sprite_bank
@@ -170,6 +171,24 @@ class PhospheneSimulator:
             self._pulse_levels = np.asarray(levels, dtype=np.uint8)
         b *= self._visible
         return b
+
+    def sprite_atlas(self) -> tuple["SpriteAtlas | None", str]:
+        """(the renderer's sprites as one texture atlas, or None and why not) — built once
+        (0.02–0.2 s), for clients that draw the phosphenes themselves (:mod:`raspv_spv.sprite_atlas`)."""
+        cached = getattr(self, "_atlas", None)
+        if cached is None:
+            try:
+                cached = (atlas_of_renderer(self.renderer, self.num_levels), "")
+            except AtlasTooLarge as exc:
+                cached = (None, str(exc))
+            self._atlas = cached
+        return cached
+
+    @property
+    def sprite_levels(self) -> np.ndarray:
+        """(N,) uint8: the sprite level each phosphene is drawn with by a levelled sprite model
+        (its latest pulse's level; 0: not drawn) — what :meth:`render` uses with the brightness."""
+        return self._pulse_levels
 
     def render(self, brightness: np.ndarray) -> np.ndarray:
         """The phosphene image of ``brightness`` (mono8 (H, W) or green rgb8 (H, W, 3)); a

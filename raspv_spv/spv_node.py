@@ -53,11 +53,12 @@ from std_msgs.msg import String
 from raspv_common import topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, image_to_array,
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
+from raspv_common.liveliness import ProducerWatch
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_common.thread_priority import normal_priority
 from raspv_common.startup_timing import startup_mark
-from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, StairDetection
+from raspv_msgs.msg import ClassNames, NavGuidance, PhospheneFrame, PhospheneMap, PhospheneSprites, StairDetection
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from raspv_nav.nav_msg import guidance_from_msg
 from raspv_perception.scene_carry import carry_labels, structure_seen_from
@@ -73,12 +74,16 @@ from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
 from raspv_spv.reprojection import DisplayFrame, DisplayView
 from raspv_spv.simulator import InputError, PhospheneSimulator
-from raspv_spv.spv_node_rebuild import _BUILD_ERRORS, SpvReconfiguration, _reason, _Rebuild, build_simulator
+from raspv_spv.spv_node_rebuild import (_BUILD_ERRORS, SpvReconfiguration, _reason, _Rebuild, build_simulator,
+                                        drawing_spec)
 from raspv_spv.spv_params import PARAMS
 
 HEAD_POKE_COS = float(np.cos(np.radians(0.1) / 2))  # a head turn of more than 0.1° is shown at once
 VIEW_INPUTS = frozenset({"camera_pose", "odom", "head"})     # what display-time reprojection reads
-MAX_CARRY_S = 0.3       # carry_scene: a scene result is carried at most this far (the staleness bound)
+MAX_CARRY_S = staleness.LATE_S   # carry_scene: a scene result is carried at most this far (an alive scene node's bound)
+INPUT_TOPICS = {"color": topics.COLOR, "depth": topics.DEPTH, "scene": topics.SCENE_STRUCTURE,
+                "scene_labels": topics.SCENE_LABELS, "nav_path": topics.NAV_PATH, "nav_guidance": topics.NAV_GUIDANCE,
+                "stairs": topics.STAIRS, "segmentation": topics.SEGMENTATION_LABELS}
 
 
 class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
@@ -93,7 +98,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self._sim_lock = threading.Lock()
         # run-time changes: checked at once, built in the background, swapped in by _swap_in
         self._applied_params = dict(self.params)
-        self._requested = (self.sim.config.map_spec(), self.map_id)
+        self._requested = (drawing_spec(self.sim.config), self.map_id)
         self._swap_pending = self._map_pending = False     # ROS-side follow-ups of a swap
         self._failed: tuple[_Rebuild, Exception] | None = None
         self._builder = BackgroundBuilder(self._build, self._swap_in, self._build_failed, name="spv-build")
@@ -110,6 +115,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self._pending_shown = False                     # … already shown with a predicted pose
         # stale inputs (raspv_spv.staleness): what the display shows instead
         self.staleness = staleness.StalenessMonitor()
+        self.producers = ProducerWatch(self)            # whether the nodes behind the inputs live
         self._plan_lock = threading.Lock()
         self._shown: tuple | None = None        # (sim, stale set, plan, simulator shown, no-data pattern)
         self._plan_logged = -1e9                # monotonic time of the last stale-input warning
@@ -124,6 +130,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self.pub_image = self.create_publisher(Image, topics.SPV_IMAGE, SENSOR_QOS)
         self.pub_frame = self.create_publisher(PhospheneFrame, topics.SPV_FRAME, SENSOR_QOS)
         self.pub_map = self.create_publisher(PhospheneMap, topics.SPV_MAP, LATCHED_QOS)
+        self.pub_sprites = self.create_publisher(PhospheneSprites, topics.SPV_SPRITES, LATCHED_QOS)
         self.pub_status = self.create_publisher(String, topics.SPV_STATUS, LATCHED_QOS)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self._subs: dict[str, object] = {}
@@ -147,9 +154,10 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         """Subscribe to the inputs the mode and overlays read (needed or optional) and those the
         reprojection reads, and only those."""
         reprojection = self.params["reprojection"] if reprojection is None else reprojection
-        watched = staleness.watched_inputs(frozenset(self.sim.mode.needs),
-                                           [o.needs | o.optional_inputs for o in self.sim.overlays])
-        self.staleness.watch(watched, staleness.expected_with(frozenset(self.sim.mode.needs)))
+        mode_needs = frozenset(self.sim.mode.needs)
+        watched = staleness.watched_inputs(mode_needs, [o.needs | o.optional_inputs for o in self.sim.overlays])
+        self.staleness.watch(watched, staleness.expected_with(mode_needs), staleness.required_inputs(mode_needs))
+        self.producers.watch({name: INPUT_TOPICS[name] for name in watched if name in INPUT_TOPICS})
         needs = (frozenset(needs) | self.sim.optional_inputs | watched
                  | (VIEW_INPUTS if reprojection else frozenset()))
         wanted = {"color": (Image, topics.COLOR, self.on_color), "depth": (Image, topics.DEPTH, self.on_depth),
@@ -439,7 +447,8 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         with self._plan_lock:
             watching = self.params["stale_inputs"] and not self.params["headless"]
             # with a simulated device latency the display shows the inputs that long later
-            stale = self.staleness.check(now - self.view.latency_s) if watching else frozenset()
+            stale = (self.staleness.check(now - self.view.latency_s, self.producers.states()) if watching
+                     else frozenset())
             shown = self._shown
             if shown is not None and shown[0] is sim and shown[1] is stale:
                 return shown[2:]
@@ -458,8 +467,10 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
     def _report_plan(self, plan: staleness.DisplayPlan, configured_mode: str, now: float) -> None:
         """Latched ``/spv/status`` (JSON) and a log line (at most one per 2 s) when what the display
         shows changes because inputs went stale or came back."""
+        producers = self.producers.states()
         status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
-                  "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes}
+                  "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
+                  "late_episodes": self.staleness.late_episodes, "producers": dict(sorted(producers.items()))}
         try:
             self.pub_status.publish(String(data=json.dumps(status)))
         except RCLError:
@@ -469,9 +480,14 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             if self._stale_logged:
                 self._stale_logged = False
                 self.get_logger().info(f"inputs back: showing mode {configured_mode} again")
+        elif all(self.staleness.never_arrived(n) for n in plan.stale):      # starting: not a fault
+            self._stale_logged = True
+            self.get_logger().info(f"waiting for {', '.join(sorted(plan.stale))}: showing "
+                                   f"{plan.describe(configured_mode)} until it comes")
         elif now - self._plan_logged >= 2.0:
             self._plan_logged, self._stale_logged = now, True
-            what = ", ".join(self.staleness.describe(n, now) for n in sorted(plan.stale))
+            what = ", ".join(self.staleness.describe(n, now, producers.get(n, staleness.UNKNOWN))
+                             for n in sorted(plan.stale))
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
 
     def close(self) -> None:
@@ -484,7 +500,8 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "
                   f"tick median {statistics.median(self._tick_ms):.2f} ms; {self.view.turned_ticks} re-projected "
-                  f"to a turned head; inputs went stale {self.staleness.episodes} times", flush=True)
+                  f"to a turned head; inputs went stale {self.staleness.episodes} times "
+                  f"({self.staleness.late_episodes} of them late from a live node)", flush=True)
 
 
 def main(argv=None) -> None:

@@ -1,11 +1,13 @@
 """The spv node's display (ROS side): the loop that shows a frame every 1/rate s, or at once on
 new content when it follows its input (:mod:`raspv_spv.display_clock`), and the tick that
-publishes ``/spv/image`` and ``/spv/frame``, and the latched ``/spv/map``. A mixin of :class:`raspv_spv.spv_node.SpvNode`:
+publishes ``/spv/image`` (only while someone subscribes) and ``/spv/frame``, and the latched
+``/spv/map`` and ``/spv/sprites``. A mixin of :class:`raspv_spv.spv_node.SpvNode`:
 it reads the node's simulator, view, staleness plan, publishers and display statistics.
 """
 from __future__ import annotations
 
 import array
+import dataclasses
 import time
 
 import numpy as np
@@ -16,6 +18,7 @@ from raspv_common.conversions import stamp_to_seconds
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv import staleness
+from raspv_spv.sprites_msg import sprites_to_msg
 
 REPORT_PERIOD_S = 10.0
 
@@ -57,7 +60,7 @@ class SpvDisplay:
         if stamp is not None:
             source_stamp = stamp                    # headless: the frame answers this input
         msg = None
-        if stamp is None or self.pub_image.get_subscription_count():   # headless: only when watched
+        if self.pub_image.get_subscription_count():          # the image only when someone watches it
             image = sim.render(brightness)
             msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
             msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
@@ -70,6 +73,8 @@ class SpvDisplay:
         frame.scene_stamp = self.header("", scene_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())
         frame.brightness = array.array("f", brightness.astype(np.float32).tobytes())
+        if sim.renderer.levels > 1:                 # the sprite each phosphene is drawn with (levels stream)
+            frame.sprite_levels = array.array("B", sim.sprite_levels.tobytes())
         try:
             if msg is not None:
                 self.pub_image.publish(msg)
@@ -121,3 +126,7 @@ class SpvDisplay:
         msg.display_y = array.array("f", m.display_centres[:, 1].astype(np.float32).tobytes())
         msg.dropped = [bool(d) for d in m.dropped]
         self.pub_map.publish(msg)
+        atlas, unavailable = sim.sprite_atlas()
+        if atlas is not None:
+            atlas = dataclasses.replace(atlas, map_id=map_id)
+        self.pub_sprites.publish(sprites_to_msg(atlas, msg.header, map_id, unavailable))

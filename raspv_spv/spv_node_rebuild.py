@@ -38,6 +38,12 @@ def checked_config(params: dict) -> tuple[SpvConfig, PhospheneMapCore]:
     return config, check_config(config)
 
 
+def drawing_spec(config: SpvConfig) -> tuple:
+    """What /spv/map and /spv/sprites show: the map, the sprites and the output format — a new
+    ``map_id`` whenever it changes (a client drawing the sprites needs the new ones)."""
+    return config.map_spec(), config.sprite_spec(), config.output_format
+
+
 def build_simulator(params: dict) -> PhospheneSimulator:
     """The simulator for the node's parameter values (raises one of ``_BUILD_ERRORS``)."""
     config, phosphene_map = checked_config(params)
@@ -77,9 +83,9 @@ class SpvReconfiguration:
         except _BUILD_ERRORS as exc:
             return _reason(exc)
         spec, map_id = self._requested
-        if config.map_spec() != spec:                # one map id per accepted change of the map
+        if drawing_spec(config) != spec:             # one map id per accepted change of the map or its sprites
             map_id += 1
-        self._requested = (config.map_spec(), map_id)
+        self._requested = (drawing_spec(config), map_id)
         self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
@@ -102,6 +108,7 @@ class SpvReconfiguration:
                                    "in the background")
             prebuild_in_subprocess(request.config)
         request.sim = PhospheneSimulator(request.config, phosphene_map=request.phosphene_map)
+        request.sim.sprite_atlas()                  # for clients drawing the sprites themselves (/spv/sprites)
         frame = self.view.newest_frame()
         if frame is not None:
             try:

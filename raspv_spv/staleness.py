@@ -1,21 +1,37 @@
-"""Stale inputs of the spv node: which inputs stopped, and what the display shows instead (no ROS).
+"""Stale inputs of the spv node: dead or slow, which inputs stopped, and what the display shows
+instead (no ROS).
 
-An input is *stale* when it has arrived before and nothing came for longer than its bound:
+*Dead or slow — told apart.* Every RASPV node announces that its process lives (DDS liveliness,
+:mod:`raspv_common.liveliness`) and what its source is doing (``delivering``, ``paused``,
+``down``); the spv node learns, for each input, the state of the node(s) publishing it — the
+*producer*:
 
-    bound = min(max(FLOOR_S, PERIODS × period), CAP_S), but never less than SLOW_FACTOR × period
+- ``alive`` (delivering): a gap in its data is *lateness*, not a fault. The input is stale only
+  when nothing came for :func:`late_bound` (``max(LATE_S, PERIODS × period)``: a second at
+  10 Hz or faster) — a node alive but hung, or starved beyond use; meanwhile scene results are
+  carried into each new depth frame and overlays keep their last input. With hysteresis: after
+  such a late episode the input counts again only once two messages come within
+  :data:`RECOVER_S` of each other (no flicker at the bound).
+- ``paused`` (a source's known pause: a replay paused by the user): never stale.
+- ``gone`` (its process died or is stopped — the DDS lease expired — or it announced ``down``,
+  e.g. a camera unplugged) and ``unknown`` (a publisher that announces nothing, e.g. a foreign
+  driver): judged by the gaps of its data alone, as a crash detector must be —
 
-with ``period`` the median of its last :data:`HISTORY` arrival intervals (receive times on the
-monotonic clock, so a replayed bag's stamps do not matter). Until :data:`MIN_INTERVALS` intervals
-are known (a source's first frames come irregularly) the bound is :data:`UNKNOWN_BOUND_S`. With
-the display tick (≤ 20 ms at 50 Hz) that shows the change, an input at 10 Hz or faster is
-detected and shown within 300 ms of its last message; an input slower than ``CAP_S /
-SLOW_FACTOR`` (~6 Hz) cannot be told apart from its own gaps that fast and gets 1.2 periods.
+      bound = min(max(FLOOR_S, PERIODS × period), CAP_S), but never less than SLOW_FACTOR × period
 
-An input that never arrived is not stale (the mode waits for it, phosphenes dark, as before),
-except the scene node's outputs a scene mode needs: once the camera has been arriving for
-longer than its bound without them (the scene node starting, or an spv restarted while the scene
-node's first messages to it are still on their way) they are stale, and the depth fallback
-shows the camera meanwhile.
+  with ``period`` the median of its last :data:`HISTORY` arrival intervals (receive times on
+  the monotonic clock). Until :data:`MIN_INTERVALS` intervals are known the bound is
+  :data:`UNKNOWN_BOUND_S`. With the display tick (≤ 20 ms at 50 Hz) a dead input at 10 Hz or
+  faster is shown within 300 ms of its last message.
+
+*Never arrived.* The camera a mode needs (``required``) is stale until its first message: the
+wearer sees the no-data ring from the node's first frame until the camera delivers (a graph
+starting, an spv restarted, a recording that never opens). Scene outputs a scene mode needs are
+stale once the camera has been arriving longer than their bound (the scene node starting: the
+depth fallback shows the camera meanwhile). Other inputs that never arrived are not stale (an
+overlay without input draws nothing). Waiting for a first message is not an *episode*;
+:attr:`StalenessMonitor.episodes` counts inputs that had arrived and went stale
+(:attr:`~StalenessMonitor.late_episodes` of them past the late bound of an alive producer).
 
 What the wearer sees (:func:`plan_display`, documented in docs/spv.md "Stale inputs"):
 
@@ -35,15 +51,21 @@ from __future__ import annotations
 import statistics
 from collections import deque
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 FLOOR_S = 0.10        # never call an input stale sooner than this after its last message [s]
 PERIODS = 3.0         # ... nor before this many of its periods passed (two lost in a row are jitter)
-CAP_S = 0.26          # ... and at most this late: + one display tick ≤ 0.3 s detected and shown
+CAP_S = 0.26          # ... and, from a dead producer, at most this late: + one display tick ≤ 0.3 s
 SLOW_FACTOR = 1.2     # an input slower than CAP_S / SLOW_FACTOR: stale after 1.2 of its periods
 HISTORY = 16          # arrival intervals the period is the median of
 MIN_INTERVALS = 3     # ... and how many are needed before it is trusted
 UNKNOWN_BOUND_S = 0.5  # the bound until then [s]
+LATE_S = 1.0          # an alive producer's input is late, not stale, for this long [s] (scene results carried)
+RECOVER_S = LATE_S / 2  # after a late episode: back when two messages come this close [s]
+
+# producer states (raspv_common.liveliness announces them; the spv node resolves them per input)
+ALIVE, PAUSED, GONE, UNKNOWN = "alive", "paused", "gone", "unknown"
+PRODUCER_STATES = (ALIVE, PAUSED, GONE, UNKNOWN)
 
 CAMERA_INPUTS = ("color", "depth")
 SCENE_INPUTS = frozenset({"scene", "scene_labels"})
@@ -56,54 +78,80 @@ NO_DATA = "no_data"   # the PhospheneFrame.mode of the no-data pattern
 
 
 def stale_bound(period_s: float | None) -> float:
-    """Seconds without a message after which an input of ``period_s`` (None: not known yet) is stale."""
+    """Seconds without a message after which an input of ``period_s`` (None: not known yet)
+    from a dead or silent producer is stale."""
     if period_s is None:
         return UNKNOWN_BOUND_S
     return max(min(max(FLOOR_S, PERIODS * period_s), CAP_S), SLOW_FACTOR * period_s)
 
 
+def late_bound(period_s: float | None) -> float:
+    """Seconds without a message after which an input of ``period_s`` from an *alive* producer
+    is stale (hung or starved beyond use): :data:`LATE_S`, or 3 periods of a slower input."""
+    return max(LATE_S, PERIODS * period_s) if period_s is not None else LATE_S
+
+
 class _InputClock:
-    __slots__ = ("first_s", "last_s", "intervals", "bound_s", "follows")
+    __slots__ = ("first_s", "last_s", "intervals", "bound_s", "late_s", "follows", "required", "recovering")
 
     def __init__(self) -> None:
         self.first_s: float | None = None
         self.last_s: float | None = None
         self.intervals: deque[float] = deque(maxlen=HISTORY)
         self.bound_s = UNKNOWN_BOUND_S
+        self.late_s = LATE_S
         self.follows: _InputClock | None = None     # never arrived: stale once this one flows longer than its bound
+        self.required = False                       # never arrived: stale (the camera a mode needs)
+        self.recovering = False                     # went stale while its producer lived: hysteresis
 
     @property
     def period_s(self) -> float | None:
         return statistics.median(self.intervals) if len(self.intervals) >= MIN_INTERVALS else None
 
-    def stale(self, now_s: float) -> bool:
-        if self.last_s is not None:
-            return now_s - self.last_s > self.bound_s
-        f = self.follows
-        return f is not None and f.first_s is not None and now_s - f.first_s > f.bound_s
+    def stale(self, now_s: float, producer: str) -> bool:
+        if producer == PAUSED:
+            return False
+        if self.last_s is None:
+            if self.required:
+                return True
+            f = self.follows
+            if f is None or f.first_s is None:
+                return False
+            return now_s - f.first_s > (max(f.bound_s, LATE_S) if producer == ALIVE else f.bound_s)
+        age = now_s - self.last_s
+        if producer == ALIVE:
+            return self.recovering or age > self.late_s
+        return age > self.bound_s
 
 
 class StalenessMonitor:
-    """Arrival times of the watched inputs → which are stale now (times: monotonic seconds).
+    """Arrival times of the watched inputs and their producers' states → which are stale now
+    (times: monotonic seconds).
 
     Thread-safe for one writer (ROS callbacks: :meth:`arrived`, :meth:`watch`) and one reader
     (the display thread: :meth:`check`): the clocks are replaced, not mutated in place, when
     the watched set changes.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, monitored: frozenset[str] = MONITORED) -> None:
+        self.monitored = frozenset(monitored)    # the input names it watches (others are ignored)
         self._clocks: dict[str, _InputClock] = {}
         self._stale: frozenset[str] = frozenset()
-        self.episodes = 0                        # times an input went stale
+        self.episodes = 0                        # times an input that had arrived went stale
+        self.late_episodes = 0                   # ... of them past the late bound of an alive producer
 
-    def watch(self, names: Iterable[str], expected_with: dict[str, str] | None = None) -> None:
-        """Watch ``names`` (those not in :data:`MONITORED` are ignored); clocks of inputs still
+    def watch(self, names: Iterable[str], expected_with: dict[str, str] | None = None,
+              required: Iterable[str] = ()) -> None:
+        """Watch ``names`` (those not in ``monitored`` are ignored); clocks of inputs still
         watched are kept, the others forgotten. ``expected_with`` {input: other input}: an input
-        that never arrived is stale once the other one has been arriving for longer than its bound."""
-        wanted = MONITORED.intersection(names)
+        that never arrived is stale once the other one has been arriving for longer than its
+        bound. ``required``: inputs stale while they never arrived (the mode's camera)."""
+        wanted = self.monitored.intersection(names)
+        required = set(required)
         clocks = {n: self._clocks.get(n) or _InputClock() for n in sorted(wanted)}
         for name, clock in clocks.items():
             clock.follows = clocks.get((expected_with or {}).get(name, ""))
+            clock.required = name in required
         self._clocks = clocks
 
     @property
@@ -116,33 +164,53 @@ class StalenessMonitor:
         if clock is None:
             return
         if clock.last_s is not None and now_s > clock.last_s:
-            clock.intervals.append(now_s - clock.last_s)
-            clock.bound_s = stale_bound(clock.period_s)
+            interval = now_s - clock.last_s
+            clock.intervals.append(interval)
+            period = clock.period_s
+            clock.bound_s, clock.late_s = stale_bound(period), late_bound(period)
+            if clock.recovering and interval <= RECOVER_S:
+                clock.recovering = False
         if clock.first_s is None:
             clock.first_s = now_s
         clock.last_s = now_s
 
-    def check(self, now_s: float) -> frozenset[str]:
-        """The inputs stale at ``now_s`` (the same object as last time while nothing changed)."""
+    def check(self, now_s: float, producers: Mapping[str, str] | None = None) -> frozenset[str]:
+        """The inputs stale at ``now_s`` given their producers' states (input → one of
+        :data:`PRODUCER_STATES`; missing: :data:`UNKNOWN`). The same object as last time while
+        nothing changed."""
+        producers = producers or {}
         changed = False
         for name, clock in self._clocks.items():
-            if clock.stale(now_s) != (name in self._stale):
+            if clock.stale(now_s, producers.get(name, UNKNOWN)) != (name in self._stale):
                 changed = True
                 break
         if changed:
-            new = frozenset(n for n, c in self._clocks.items() if c.stale(now_s))
-            self.episodes += len(new - self._stale)
+            new = frozenset(n for n, c in self._clocks.items() if c.stale(now_s, producers.get(n, UNKNOWN)))
+            for name in new - self._stale:
+                clock = self._clocks[name]
+                if clock.last_s is None:
+                    continue                     # waiting for a first message: not an episode
+                self.episodes += 1
+                if producers.get(name, UNKNOWN) == ALIVE:
+                    self.late_episodes += 1
+                    clock.recovering = True
             self._stale = new
         return self._stale
 
-    def describe(self, name: str, now_s: float) -> str:
-        """'scene (nothing for 0.31 s; expected every 0.10 s)' for logs."""
+    def never_arrived(self, name: str) -> bool:
+        """True while watched input ``name`` has not delivered a first message."""
         clock = self._clocks.get(name)
+        return clock is not None and clock.last_s is None
+
+    def describe(self, name: str, now_s: float, producer: str = UNKNOWN) -> str:
+        """'scene (nothing for 0.31 s; expected every 0.10 s; its node gone)' for logs."""
+        clock = self._clocks.get(name)
+        node = {ALIVE: "; its node alive but late", GONE: "; its node gone", PAUSED: "; paused"}.get(producer, "")
         if clock is None or clock.last_s is None:
-            return f"{name} (never arrived)"
+            return f"{name} (nothing yet{node})"
         period = clock.period_s
         expected = f"; expected every {period:.2f} s" if period is not None else ""
-        return f"{name} (nothing for {now_s - clock.last_s:.2f} s{expected})"
+        return f"{name} (nothing for {now_s - clock.last_s:.2f} s{expected}{node})"
 
 
 @dataclass(frozen=True)
@@ -182,6 +250,15 @@ def watched_inputs(mode_needs: frozenset[str], overlay_reads: Iterable[frozenset
     for reads in overlay_reads:
         out |= reads
     return frozenset(out) & MONITORED
+
+
+def required_inputs(mode_needs: frozenset[str]) -> frozenset[str]:
+    """The camera inputs that show the no-data ring while they never arrived: the mode's camera
+    (colour, else depth) and, for scene modes, the depth of the fallback."""
+    out = {camera_input(mode_needs)}
+    if mode_needs & SCENE_INPUTS:
+        out.add(camera_input(frozenset()))
+    return frozenset(out)
 
 
 def expected_with(mode_needs: frozenset[str]) -> dict[str, str]:

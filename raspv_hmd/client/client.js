@@ -2,14 +2,17 @@
 // mode keys back to the bridge (protocol reference: docs/hmd.md). Plain JS, no dependencies.
 //
 // URL options: ?token=… (required when the bridge is not on loopback), role=watch,
-// stereo=1, green=1, format=raw|png, overlay=0, orientation=1 (phone motion sensors turn the head).
+// stereo=1, green=1, format=levels|raw|png (default: levels — the page draws the phosphenes
+// itself from one weight per phosphene, levels_renderer.js; raw/png: images), draw=webgl|cpu (how
+// the page draws levels; default: WebGL with a graphics processor, else its own thread),
+// overlay=0, orientation=1 (phone motion sensors turn the head).
 // Frames: head orientation relative to the avatar base (x forward, y left, z up); roll/pitch/yaw
 // in radians, pitch > 0 looks down, yaw > 0 looks left.
 "use strict";
 (() => {
   const HEADER_BYTES = 40;
-  const FORMAT_RAW = 0, FORMAT_PNG = 1;
-  const WINDOW = 2;                          // frames in flight before an ack
+  const FORMAT_RAW = 0, FORMAT_PNG = 1, FORMAT_LEVELS = 2;
+  const WINDOW = 3;                          // frames in flight before an ack (the page shows the newest; 2 starved a 50 Hz stream at a 60 Hz page)
   const LINEAR = 0.5, ANGULAR = 1.0;         // m/s, rad/s (Shift doubles them)
   const TWIST_PERIOD_MS = 100;               // resend while moving (the bridge stops after 0.5 s)
   const DRAG_RAD_PER_PX = 0.25 * Math.PI / 180;
@@ -23,9 +26,24 @@
 
   const params = new URLSearchParams(location.search);
   const $ = (id) => document.getElementById(id);
-  const view = $("view");
-  const ctx = view.getContext("2d", { alpha: false });
-  const frameCanvas = document.createElement("canvas");       // the newest decoded frame
+  let view = $("view");
+  // The levels stream unless the URL asks for images; drawn with WebGL where a graphics processor
+  // does it, else on the page's thread (WebGL in software costs more than it saves).
+  const askedFormat = params.get("format") || "", askedDraw = params.get("draw") || "";
+  let levels = null, gpuDraw = false;
+  if ((askedFormat === "" || askedFormat === "levels") && window.RaspvLevels) {
+    if (askedDraw !== "cpu") {
+      const probe = RaspvLevels.contextFor(document.createElement("canvas"));
+      const useGl = probe && (askedDraw === "webgl" || RaspvLevels.hardware(probe));
+      if (probe) { const lose = probe.getExtension("WEBGL_lose_context"); if (lose) lose.loseContext(); }
+      const gl = useGl ? RaspvLevels.contextFor(view) : null;
+      try { levels = gl ? RaspvLevels.create(gl) : null; gpuDraw = !!levels; } catch (e) { levels = null; }
+      if (gl && !levels) { const fresh = view.cloneNode(true); view.replaceWith(fresh); view = fresh; }
+    }
+    if (!levels) { levels = RaspvLevels.createCpu(); RaspvLevels.loadKernels("levels_kernels.wasm"); }
+  }
+  const ctx = gpuDraw ? null : view.getContext("2d", { alpha: false });
+  const frameCanvas = document.createElement("canvas");       // the newest decoded image frame
   const frameCtx = frameCanvas.getContext("2d");
 
   // Everything the page knows; exposed read-only for tests and curious users.
@@ -33,12 +51,21 @@
     connected: false, role: null, clientId: null, format: null, closedFor: null,
     stereo: params.get("stereo") === "1", green: params.get("green") === "1",
     framesReceived: 0, framesShown: 0, lastShownSeq: 0, size: null,
+    drawsLevels: !!levels, drawer: levels ? (gpuDraw ? "webgl" : "cpu") : null, drawMs: 0, presentMs: 0,
+    get accumulation() { return levels ? levels.accumulation : null; }, spritesMapId: null,
+    framesFallback: 0, framesNoData: 0, lastNoData: false, bytesReceived: 0, spritesBytes: 0, localRing: false,
     rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
     head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
     lastStatus: "", xr: false, orientation: false,
     instructions: null, trialId: null, startedId: null, experimentSent: [],
   };
   window.raspvClient = S;
+  // the phosphene image the page drew last (levels stream), for tests: {width, height, pixels, seq, stamp}
+  S.readImage = () => {
+    if (!levels || !readyMeta || readyMeta.fmt !== FORMAT_LEVELS) return null;
+    const img = levels.readImage();
+    return img && Object.assign(img, { seq: readyMeta.seq, stamp: readyMeta.stamp, pixels: Array.from(img.pixels) });
+  };
 
   let ws = null, pending = null, decoding = false, readySeq = 0, readyMeta = null;
   let headDirty = false, lastTwistSent = 0, xrSession = null, xrGl = null;
@@ -56,7 +83,7 @@
     ws.onopen = () => {
       send({ type: "hello", protocol: 1, token: params.get("token") || "", name: navigator.userAgent.slice(0, 60),
              role: params.get("role") === "watch" ? "watch" : "control",
-             format: params.get("format") || "auto", window: WINDOW });
+             format: levels ? "levels" : (askedFormat || "auto"), window: WINDOW });
     };
     ws.onmessage = (ev) => (typeof ev.data === "string" ? onText(ev.data) : onFrame(ev.data));
     ws.onclose = () => {
@@ -105,9 +132,20 @@
     setState(role === "control" ? "connected — controlling" : "connected — watching", role === "control" ? "ok" : "watch");
   }
 
+  let lastSprites = null, lastLevelsFrame = null;
   function onFrame(buf) {
+    if (levels && buf.byteLength >= 4 && String.fromCharCode(...new Uint8Array(buf, 0, 4)) === RaspvLevels.SPRITES_MAGIC) {
+      const sp = RaspvLevels.parseSprites(buf);          // the sprite atlas of a new map (once per map)
+      if (!sp) { showMessage("a sprites message could not be read", false); return; }
+      lastSprites = sp;
+      S.spritesBytes += buf.byteLength;
+      levels.setSprites(sp);
+      S.spritesMapId = sp.mapId;
+      return;
+    }
     if (buf.byteLength < HEADER_BYTES) return;
     S.framesReceived++;
+    S.bytesReceived += buf.byteLength;
     pending = buf;                              // newer frames replace ones not yet decoded
   }
 
@@ -126,7 +164,21 @@
     const n = dv.getUint32(20, true), stamp = dv.getFloat64(24, true), sent = dv.getFloat64(32, true);
     const meta = { seq, w, h, stamp, sent, fmt };
     const green = S.green || greenFrame;
-    if (fmt === FORMAT_RAW) {
+    if (fmt === FORMAT_LEVELS) {
+      if (!levels) return;
+      const frame = RaspvLevels.parseFrame(buf, HEADER_BYTES);
+      if (!gpuDraw) levels.green = green;
+      const t0 = performance.now();
+      if (!frame || !levels.draw(frame)) return;        // drawn into the page's phosphene image
+      S.drawMs = 0.9 * S.drawMs + 0.1 * (performance.now() - t0);
+      lastLevelsFrame = frame;
+      meta.green = greenFrame;
+      S.size = `${w}×${h}`;
+      S.lastNoData = frame.noData;
+      if (frame.noData) S.framesNoData++;
+      else if (frame.fallback) S.framesFallback++;
+      ready(meta);
+    } else if (fmt === FORMAT_RAW) {
       if (n !== w * h * channels) return;
       setFrameSize(w, h);
       const img = frameCtx.createImageData(w, h);
@@ -166,7 +218,29 @@
     S.size = `${w}×${h}`;
   }
 
-  function ready(meta) { readySeq = meta.seq; readyMeta = meta; }
+  let lastFrameAt = performance.now();
+  function ready(meta) { readySeq = meta.seq; readyMeta = meta; lastFrameAt = performance.now(); S.localRing = false; }
+
+  // No frame for NO_FRAMES_MS (the bridge or the network gone): never freeze on the last image.
+  // With the levels stream the page blinks the no-data ring itself (its phosphenes came with the
+  // sprites); with images it goes dark.
+  const NO_FRAMES_MS = 500;
+  function watchFrames(now) {
+    if (now - lastFrameAt < NO_FRAMES_MS || !readyMeta) return;
+    if (levels && lastSprites) {
+      const frame = RaspvLevels.ringFrame(lastSprites, now);
+      if (frame && levels.draw(frame)) {
+        S.localRing = true; S.lastNoData = true;
+        readyMeta = { seq: readyMeta.seq, w: lastSprites.width, h: lastSprites.height, stamp: readyMeta.stamp,
+                      fmt: FORMAT_LEVELS, green: lastSprites.green, local: true };
+        lastLevelsFrame = frame;
+        viewDirty = true;
+        return;
+      }
+    }
+    readyMeta = null;                          // images: dark rather than frozen
+    viewDirty = true;
+  }
 
   // ---- drawing ----------------------------------------------------------------------------
   function resize() {
@@ -176,15 +250,49 @@
   }
 
   function fit(x, y, w, h) {                     // the frame scaled into a box, centred
-    const s = Math.min(w / frameCanvas.width, h / frameCanvas.height);
-    const dw = frameCanvas.width * s, dh = frameCanvas.height * s;
+    const fw = readyMeta ? readyMeta.w : frameCanvas.width, fh = readyMeta ? readyMeta.h : frameCanvas.height;
+    const s = Math.min(w / fw, h / fh);
+    const dw = fw * s, dh = fh * s;
     return [x + (w - dw) / 2, y + (h - dh) / 2, dw, dh];
+  }
+
+  function boxes(width, height) {                  // where the frame goes: one box, or one per eye
+    if (!S.stereo) return [fit(0, 0, width, height)];
+    return [fit(0, 0, width / 2, height), fit(width / 2, 0, width / 2, height)];
+  }
+
+  // The page's own drawing of the levels (no WebGL): the canvas takes the image's size (twice as
+  // wide in stereo) and CSS fits it to the window.
+  function presentNative() {
+    const sp = levels.sprites, image = levels.image();
+    const w = sp.width, h = sp.height, eyes = S.stereo ? 2 : 1;
+    if (view.width !== w * eyes || view.height !== h) { view.width = w * eyes; view.height = h; }
+    view.classList.add("native");
+    for (let e = 0; e < eyes; e++) ctx.putImageData(image, e * w, 0);
   }
 
   function present() {
     if (readySeq <= S.lastShownSeq && !viewDirty) return;
     viewDirty = false;
+    if (!gpuDraw && levels && readyMeta && readyMeta.fmt === FORMAT_LEVELS) {
+      const t0 = performance.now();
+      presentNative();
+      S.presentMs = 0.9 * S.presentMs + 0.1 * (performance.now() - t0);
+      shown();
+      return;
+    }
+    view.classList.remove("native");
     resize();
+    if (gpuDraw) {                                // WebGL: the levels image, or an image frame as a texture
+      levels.clear(null);
+      if (readyMeta) {
+        const green = S.green || !!readyMeta.green;
+        if (readyMeta.fmt === FORMAT_LEVELS) levels.present(boxes(view.width, view.height), green, null, view.height);
+        else levels.presentImage(frameCanvas, boxes(view.width, view.height), S.green, null, view.height);
+      }
+      shown();
+      return;
+    }
     ctx.fillStyle = "#000";
     ctx.fillRect(0, 0, view.width, view.height);
     if (readyMeta) {
@@ -394,11 +502,14 @@
     try {
       const session = await navigator.xr.requestSession("immersive-vr", { optionalFeatures: ["local"] });
       const glCanvas = document.createElement("canvas");
-      const gl = glCanvas.getContext("webgl", { xrCompatible: true, alpha: false });
+      const gl = glCanvas.getContext(levels ? "webgl2" : "webgl", { xrCompatible: true, alpha: false });
       if (!gl) throw new Error("no WebGL");
       session.updateRenderState({ baseLayer: new XRWebGLLayer(session, gl) });
       const space = await session.requestReferenceSpace("local");
-      xrGl = makeQuadRenderer(gl);
+      // the levels stream is drawn in the XR context too (textures are not shared between contexts)
+      const xrLevels = levels && gpuDraw ? RaspvLevels.create(gl) : null;
+      let xrSprites = null, xrDrawn = null;
+      xrGl = xrLevels ? null : makeQuadRenderer(gl);
       xrSession = session; S.xr = true;
       $("vr").textContent = "Exit VR";
       session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; S.headQuaternion = null; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
@@ -416,8 +527,22 @@
         gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
         gl.clearColor(0, 0, 0, 1); gl.clear(gl.COLOR_BUFFER_BIT);
         if (readyMeta && pose) {
-          xrGl.upload(frameCanvas);
-          for (const v of pose.views) { const vp = layer.getViewport(v); xrGl.draw(vp.x, vp.y, vp.width, vp.height); }
+          const eyes = pose.views.map((v) => layer.getViewport(v));
+          if (xrLevels) {
+            const H = layer.framebufferHeight || gl.drawingBufferHeight;
+            const toBoxes = () => eyes.map((vp) => [vp.x, H - vp.y - vp.height, vp.width, vp.height]);
+            if (readyMeta.fmt === FORMAT_LEVELS && lastLevelsFrame) {
+              if (xrSprites !== lastSprites) { xrLevels.setSprites(lastSprites); xrSprites = lastSprites; }
+              if (xrDrawn !== lastLevelsFrame) { xrLevels.draw(lastLevelsFrame); xrDrawn = lastLevelsFrame; }
+              xrLevels.present(toBoxes(), S.green || !!readyMeta.green, layer.framebuffer, H);
+            } else {
+              xrLevels.presentImage(frameCanvas, toBoxes(), S.green, layer.framebuffer, H);
+            }
+          } else {
+            if (readyMeta.fmt === FORMAT_LEVELS && levels) paintFrameCanvas();   // the page's own drawing
+            xrGl.upload(frameCanvas);
+            for (const vp of eyes) xrGl.draw(vp.x, vp.y, vp.width, vp.height);
+          }
         }
         shown();
       };
@@ -425,6 +550,12 @@
     } catch (e) {
       showMessage(`VR session failed: ${e.message || e}`, false);
     }
+  }
+
+  function paintFrameCanvas() {                // the page-drawn levels image into frameCanvas (XR upload)
+    const sp = levels.sprites;
+    setFrameSize(sp.width, sp.height);
+    frameCtx.putImageData(levels.image(), 0, 0);
   }
 
   function makeQuadRenderer(gl) {              // one textured quad filling each eye's viewport
@@ -486,6 +617,7 @@
       headDirty = false;
     }
     decodePending();
+    watchFrames(now);
     updateStatus(now);
   }
 

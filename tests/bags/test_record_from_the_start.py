@@ -1,8 +1,10 @@
-"""Recording from the first message (issue 16): the known-topic table, topics added with their first
-message, `bag info` rates over each topic's own span — and, in a live graph, the sim's first camera
-frame in a bag whose recorder started first."""
+"""Recording from the first message (issues 16 and 27): the known-topic table, topics added with
+their first message, `bag info` rates over each topic's own span — and, in a live graph, the sim's
+first camera frame in a bag whose recorder started first, and a recorder started on a running
+graph capturing from its first second."""
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -18,6 +20,7 @@ from raspv_bringup.bag_cli import format_info
 from raspv_common import topics as T
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.ros_introspection import message_class
+from raspv_common.startup_timing import SPAWN_TIME_ENV, STARTUP_REPORT_ENV
 
 PAYLOAD = b"\x00\x01\x00\x00" + bytes(100)
 
@@ -119,3 +122,28 @@ def test_the_first_camera_frame_of_a_graph_started_after_the_recorder_is_in_the_
     missed = round((stamps[0] - first) * rate)
     print(f"first colour frame in the bag: {missed} frame(s) after the sim's first ({(stamps[0] - first) * 1e3:.0f} ms)")
     assert missed <= 1, (stamps[:3], first, output[-2000:])          # target: at most one camera frame missed
+
+
+@pytest.mark.integration
+def test_a_recorder_started_on_a_running_graph_captures_from_its_first_second(graph, tmp_path):
+    """Issue 27: the recorder subscribes before it opens the bag and loads rosbags' types, and
+    messages keep the time the middleware received them, so the first message in the bag was
+    received before the bag even existed (impossible when the bag came first: then nothing was
+    captured for 1.37-1.52 s at load 1.3-6, 6.1-8.4 s at load 11). Bound: 8 s from the
+    recorder's spawn, a loaded machine's margin (2.2-4.1 s measured at load 9-11)."""
+    g = graph({"launch": {"nodes": [{"kind": "sim"}]},
+               "sim": {"ros__parameters": {"world": "office", "rate": 20.0, "width": 160, "height": 120}}})
+    g.wait_for_output(r"first camera frame published", timeout=120)
+    out = tmp_path / "late"
+    spawn = time.time()
+    env = {**os.environ, STARTUP_REPORT_ENV: "1", SPAWN_TIME_ENV: repr(spawn)}
+    res = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "bag", "record", "-o", str(out), "--duration", "2"],
+                         capture_output=True, text=True, env=env, timeout=120)
+    assert res.returncode == 0, res.stderr[-2000:]
+    marks = {m.group(1): float(m.group(2)) for m in re.finditer(r"startup: (.+?) at ([\d.]+) s", res.stdout)}
+    with BagReader(out) as r:
+        first = r.start_ns * 1e-9 - spawn
+        assert T.COLOR in r.topics
+    print(f"first message {first:.3f} s after the recorder's spawn; bag opened at {marks['bag opened']:.3f} s")
+    assert first < marks["bag opened"], (first, marks)
+    assert first < 8.0, (first, marks)

@@ -2,6 +2,7 @@
 phosphenes built from the camera's frames reach a headset client; IMU gravity reaches scene
 perception through /camera/imu."""
 import asyncio
+import json
 import re
 
 import numpy as np
@@ -87,3 +88,25 @@ def test_imu_gravity_finds_a_floor_the_mounting_rules_out(graph, probe, tum_reco
         assert last.gravity_source == SceneStructureMsg.GRAVITY_FLOOR
     else:     # the mounting's limits rule the real floor out (the desk top, 1.07 m below, is in range)
         assert not (last.floor_found and abs(last.camera_height - 1.79) < 0.2)
+
+
+def test_a_recordings_loop_is_not_a_stop(graph, probe, tum_recordings):
+    """A 1-second recording looping (issue 21): its camera node stays alive and delivering while it
+    re-opens the file, so the wearer never sees the no-data ring at a loop, and the scene node,
+    alive, never makes the mode fall back — over some eight loops."""
+    from std_msgs.msg import String
+
+    from raspv_common.qos import LATCHED_QOS
+
+    graph(CONFIG_DIR / "camera.yaml", [f"camera.file:={tum_recordings['realsense']}", *BRIDGE])
+    phosphenes_from_the_camera(probe, mode="chess_floor")
+    status = probe.subscribe(topics.SPV_STATUS, String, qos=LATCHED_QOS)
+    frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
+    got = frames.wait(400, timeout=120)                     # 8 s of 50 Hz display: ~8 loops of the recording
+    shown = {}
+    for f in got:
+        shown[f.mode] = shown.get(f.mode, 0) + 1
+    last = json.loads(status.wait(1, timeout=10)[0].data) if not status.messages else json.loads(status.messages[-1].data)
+    print(f"\nover {len(got)} display frames: {shown}; status {last}")
+    assert shown.get("no_data", 0) == 0 and set(shown) == {"chess_floor"}, shown
+    assert last["stale_episodes"] == 0, last

@@ -1,4 +1,6 @@
 """The `camera` node playing each SDK's own recording: the standard topics, unchanged."""
+import shutil
+
 import numpy as np
 import pytest
 from sensor_msgs.msg import CameraInfo, Image, Imu
@@ -100,15 +102,20 @@ def test_depthai_recording(graph, probe, depthai_recording):
 
 
 def test_no_camera_is_reported_and_retried_while_the_graph_runs(graph, probe, tmp_path, realsense_recording):
+    # the launcher opens the recording before it starts anything (a file that does not open is
+    # refused there), so it breaks while the graph runs: at the end of a pass the node reopens it
     later = tmp_path / "later.db3"
-    later.write_bytes(b"")         # there when the graph starts (the launcher checks that), not yet written
+    shutil.copy(realsense_recording.path, later)
     g = graph(camera_graph({"driver": "realsense", "file": str(later), "retry_period": 0.2}))
+    probe.wait_for_message(topics.COLOR, Image, timeout=60)
+    (tmp_path / "empty.db3").write_bytes(b"")
+    (tmp_path / "empty.db3").replace(later)                          # the recording is gone to nothing
     g.wait_for_output(r"later\.db3.*; retrying every 0\.2 s", timeout=60)
     tmp = tmp_path / "writing.db3"
     tmp.write_bytes(realsense_recording.path.read_bytes())
-    tmp.replace(later)                                                # the recording appears, whole
-    probe.wait_for_message(topics.COLOR, Image, timeout=60)
+    tmp.replace(later)                                                # the recording is back, whole
     g.wait_for_output(r"camera back", timeout=30)
+    probe.wait_for_message(topics.COLOR, Image, timeout=60)
     assert g.running
 
 

@@ -142,7 +142,7 @@ def test_report_opens_in_a_browser(study):
             page.goto(report.as_uri())
             page.wait_for_function("[...document.images].every(i => i.complete)", timeout=30_000)
             images = page.evaluate("[...document.images].map(i => [i.getAttribute('src'), i.naturalWidth])")
-            assert len(images) == 6 and all(w > 200 for _, w in images), images
+            assert len(images) == 7 and all(w > 200 for _, w in images), images      # + Kaplan–Meier
             assert "figures/trajectories-hallway.png" in [src for src, _ in images]
             text = page.inner_text("body")
             assert "12 trial records" in text and "depth_edges" in text and "Wilcoxon" in text

@@ -69,8 +69,10 @@ def test_clearance_and_shortest_path_in_a_real_world(tmp_path):
     geo = world_geometry(HALLWAY)
     # the hallway is 3 m wide: in its middle a 0.25 m body is 1.5 - 0.06 (half a wall) - 0.25 m from the walls
     c = geo.clearance(np.array([[2.0, 1.5], [4.0, 1.5]]))
-    assert c[0] == pytest.approx(1.5 - 0.06 - 0.25, abs=0.06)
-    assert c[1] == pytest.approx(2.1 - 0.3 - 1.5 - 0.25, abs=0.06)      # the crate's near side is at y = 1.8
+    assert c[0] == pytest.approx(1.5 - 0.06 - 0.25, abs=0.03)          # the stated tolerance: ±3 cm
+    assert c[1] == pytest.approx(2.1 - 0.3 - 1.5 - 0.25, abs=0.03)      # the crate's near side is at y = 1.8
+    touching = geo.clearance(np.array([[4.0, 1.8 - 0.25], [1.0, 0.06 + 0.25]]))        # body against the crate, a wall
+    assert touching == pytest.approx([0.0, 0.0], abs=0.03)
     path, length = geo.shortest_path((1.0, 1.5), (8.6, 1.5), 0.8)
     assert length == pytest.approx(8.6 - 0.8 - 1.0, abs=0.15)           # straight along the hallway's free middle
     assert np.linalg.norm(path[-1] - [8.6, 1.5]) == pytest.approx(0.8, abs=1e-6)

@@ -23,7 +23,7 @@ def test_the_documented_example_loads():
     assert [c.name for c in p.conditions] == ["depth", "downsampling"]
     assert p.conditions[0].params == {"spv": {"mode": "depth"}}
     task = p.tasks[0]
-    assert (task.start_x, task.start_y, task.goal.radius, task.time_limit) == (1.0, 1.5, 0.8, 40.0)
+    assert (task.start_x, task.start_y, task.goal.radius, task.time_limit) == (1.0, 2.1, 0.8, 40.0)
     assert p.design.repetitions == 3 and p.design.order == "latin_square"
     assert [n.kind for n in p.graph.nodes] == ["sim", "spv", "bridge"]
     # every parameter a condition sets is reset to the graph's value (or the node's default) for the others
@@ -68,6 +68,8 @@ def test_goals_from_objects_and_world_goals(write_protocol, example_doc):
      "tasks.hallway.time_limit: expected a positive number, got -3"),
     (lambda d: d["tasks"]["hallway"]["start"].update(position=[1]),
      "tasks.hallway.start.position: expected [x, y] in metres, got [1]"),
+    (lambda d: d["tasks"]["hallway"]["start"].update(position=[4.0, 2.1]),
+     "tasks.hallway.start.position: the avatar at [4, 2.1] overlaps box 'crate'"),
     (lambda d: d["design"].update(order="balanced"),
      "design.order: 'balanced' is not allowed; expected one of fixed, random, latin_square"),
     (lambda d: d["design"].update(repetitions=0), "design.repetitions: expected an integer in [1, 1000], got 0"),

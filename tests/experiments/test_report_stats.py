@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import math
 
 import numpy as np
@@ -93,3 +94,78 @@ def test_report_from_sessions(tmp_path):
     with pytest.raises(ReportError, match="no trial records"):
         build_report([tmp_path / "report"], tmp_path / "r2")
     assert [r["index"] for r in tidy_rows(records) if r["subject"] == "S01"] == list(range(1, 8))
+
+
+def test_effect_sizes_and_bootstrap_intervals():
+    from raspv_experiments.repeated_measures import bootstrap_median_ci, kendall_w, rank_biserial
+
+    assert rank_biserial(np.array([1.0, 2.0, 3.0])) == 1.0 and rank_biserial(np.array([-1.0, -2.0])) == -1.0
+    assert rank_biserial(np.array([1.0, -2.0, 3.0, 0.0])) == pytest.approx((1 + 3 - 2) / 6)   # ranks 1, 2, 3; zero out
+    agree = {(f"S{i}", c): [float(k)] for i in range(6) for k, c in enumerate("abc")}          # everyone a < b < c
+    res = compare_conditions("x", agree, ["a", "b", "c"])
+    assert res.kendall_w == pytest.approx(1.0) and kendall_w(res.friedman_statistic, 6, 3) == pytest.approx(1.0)
+    d = np.array([2.0, 3.0, 2.5, 4.0, 3.5, 1.0, 2.0, 3.0])
+    lo, hi = bootstrap_median_ci(d)
+    assert lo <= np.median(d) <= hi and (lo, hi) == bootstrap_median_ci(d)                        # seeded
+    assert np.isnan(bootstrap_median_ci(d[:2])[0]) and bootstrap_median_ci(np.ones(5)) == (1.0, 1.0)
+
+
+def test_ties_give_notes_not_scipy_warnings():
+    import warnings
+
+    values = {(f"S{i}", c): [1.0 if c != "c" else 2.0 + (i % 2)] for i in range(6) for c in "abc"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = compare_conditions("tied", values, ["a", "b", "c"])
+        tied = compare_conditions("all", {(f"S{i}", c): [1.0] for i in range(6) for c in "abc"}, ["a", "b", "c"])
+    assert res.pairs[0].note == "no difference in any subject" and res.pairs[1].p == pytest.approx(0.03125)
+    assert tied.friedman_note.startswith("all values tied")
+
+
+def test_censored_times_kaplan_meier_and_log_rank():
+    from raspv_experiments.survival import kaplan_meier, logrank
+
+    # 3 of 5 reached the goal at 10, 12, 15 s; two ran out of time at 40 s (censored, not 40 s times)
+    km = kaplan_meier([10, 12, 15, 40, 40], [True, True, True, False, False])
+    assert km.still_going.tolist() == pytest.approx([0.8, 0.6, 0.4, 0.4]) and km.median_s == 15.0
+    km2 = kaplan_meier([10, 40, 40, 40], [True, False, False, False])
+    assert np.isnan(km2.median_s)                                # fewer than half got there: "not reached"
+    r = logrank("fast", [10, 11, 12, 13, 14, 15], [True] * 6, "slow", [40] * 6, [False] * 6)
+    assert r.p < 0.01
+    assert logrank("a", [40, 40], [False, False], "b", [40], [False]).note
+
+
+def test_report_sections_factors_warnings_and_display(tmp_path):
+    import warnings
+
+    for s in ("S01", "S02", "S03"):
+        fake_session(tmp_path / "s", s, {"mode=depth": [12.0, 14.0], "mode=grey": [40.0, 35.0]})
+    for f in (tmp_path / "s").rglob("trials.jsonl"):            # add the sweep's factors and the display record
+        recs = [json.loads(l) for l in f.read_text().splitlines()]
+        f.write_text("")
+        for k, r in enumerate(recs):
+            if r.get("status") == "completed":
+                r["factors"] = {"spv.mode": r["condition"].split("=")[1]}
+                share = 0.9 if (k == 0 and "S02" in str(f)) else 1.0
+                r["display"] = {"device": "argus_ii", "phosphenes": 60, "phosphenes_shown": 58, "frames": 100,
+                                "own_frames": int(100 * share), "own_share": share,
+                                "fallbacks": {"mode:depth": {"frames": 10, "seconds": 1.0}} if share < 1 else {}}
+            append_jsonl(f, r)
+        (f.parent / "session.json").write_text(json.dumps({"protocol": "example", "subject": f.parent.name,
+                                                           "factors": {"spv.mode": ["grey", "depth"]}}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        page = build_report([tmp_path / "s"], tmp_path / "report").read_text()
+    assert "Condition mode=grey never reached the goal (0/6)" in page                   # the baseline warning
+    assert "Kaplan–Meier median completion time" in page and "not reached" in page and "log-rank" in page
+    assert "rank-biserial r" in page and "Kendall" not in page.split("Statistics")[0]
+    assert "<table class='subjects'>" in page and "S03" in page
+    assert "figures/main_effects.png" in page and "figures/kaplan_meier.png" in page
+    effects = page[page.index("Sweep factors"):]
+    assert effects.index("<td>grey</td>") < effects.index("<td>depth</td>")             # levels in the sweep's order
+    assert "90.00 %" in page and "mode:depth 10 frames / 1.00 s" in page               # a trial flagged
+    assert "Empty: no trial reached the goal" not in page
+    rows = list(csv.DictReader(open(tmp_path / "report" / "trials.csv")))
+    assert rows[0]["spv.mode"] in ("depth", "grey") and rows[0]["phosphenes_shown"] == "58"
+    lenient = build_report([tmp_path / "s"], tmp_path / "r2", share_threshold=0.8).read_text()
+    assert "at least 80 %" in lenient

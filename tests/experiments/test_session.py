@@ -12,7 +12,8 @@ import pytest
 from raspv_experiments.design import plan_session
 from raspv_experiments.protocol import EXPERIMENTS_DIR, load_protocol
 from raspv_experiments.session import SessionError, SessionFolder, append_jsonl, read_jsonl
-from raspv_experiments.session_control import ExperimenterControl, TrialMonitor, ViewState, status_line
+from raspv_experiments.session_control import ExperimenterControl, TrialMonitor, ViewState, elapsed_and_eta, status_line
+from raspv_experiments.subject_ability import subject_ability
 from raspv_experiments.session_runner import RunOptions, parse_subject, session_graph
 
 EXAMPLE = EXPERIMENTS_DIR / "example.yaml"
@@ -105,10 +106,14 @@ def test_status_line():
     assert line.startswith("[#######.............] 2/6 | trial 3: depth / hallway / rep 3 | running |  12.3/40 s")
     assert "1 collision (last: box:crate)" in line
     assert len(status_line(v, 30)) == 30
+    v.started, v.now, v.done_before = 100.0, 160.0, 1             # resumed at 1 done; 1 more in 60 s
+    assert "2/6 elapsed 1:00, ETA 4:00 |" in status_line(v, 200)
+    assert elapsed_and_eta(0, 5, 30.0) == "elapsed 0:30" and elapsed_and_eta(5, 5, 4000) == "elapsed 1:06:40"
 
 
 def test_subject_ids():
     assert parse_subject("S07") == ("S07", None, 7)
+    assert parse_subject("scripted") == ("scripted-navigate-1", "navigate", 1)           # the default virtual patient
     assert parse_subject("scripted:follow_path") == ("scripted-follow_path-1", "follow_path", 1)
     assert parse_subject("scripted:wander_avoid:4") == ("scripted-wander_avoid-4", "wander_avoid", 4)
     for bad, msg in [("scripted:fly", "unknown policy"), ("scripted:follow_path:x", "must be a number"),
@@ -126,5 +131,9 @@ def test_session_graph_for_people_and_scripted_subjects(tmp_path):
     assert [n.kind for n in scripted.nodes] == ["sim", "spv", "subject"]           # no bridge: headless
     assert scripted.node("sim").params["step_mode"] == "lockstep"
     assert scripted.node("spv").params["headless"] and scripted.node("spv").params["use_sim_time"]
-    assert scripted.node("subject").params == {"policy": "follow_path", "seed": 2, "use_sim_time": True}
+    assert scripted.node("subject").params == {**subject_ability(2), "policy": "follow_path", "seed": 2,
+                                               "use_sim_time": True}               # virtual subject 2's ability
+    assert scripted.node("sim").params["lockstep_hold"] and "lockstep_participants" not in scripted.node("sim").params
+    baked = session_graph(protocol, "office", RunOptions(tmp_path, "scripted-navigate-2", "navigate"), 2, "depth")
+    assert baked.node("spv").params["mode"] == "depth"                     # exact runs: the condition in the graph
     assert protocol.graph.node("sim").params.get("world") is None                    # the protocol is untouched

@@ -13,7 +13,8 @@ from raspv_experiments.sweep import load_sweep, run_sweep
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
 
-def short_sweep(tmp_path, subjects: int = 2):
+def short_sweep(tmp_path, subjects: int = 2, policy: str = "wander_avoid", repetitions: int = 1,
+                name: str = "short_sweep"):
     """The example protocol with 5 s trials, swept over two modes."""
     (tmp_path / "worlds").mkdir(exist_ok=True)
     (tmp_path / "worlds" / "hallway.yaml").write_text((EXPERIMENTS_DIR / "worlds" / "hallway.yaml").read_text())
@@ -21,8 +22,8 @@ def short_sweep(tmp_path, subjects: int = 2):
     doc["tasks"]["hallway"]["time_limit"] = 5
     (tmp_path / "short.yaml").write_text(yaml.safe_dump(doc))
     (tmp_path / "sweep.yaml").write_text(yaml.safe_dump({
-        "name": "short_sweep", "protocol": "short.yaml", "policy": "wander_avoid", "subjects": subjects,
-        "factors": {"spv.mode": ["depth", "grey"]}, "repetitions": 1}))
+        "name": name, "protocol": "short.yaml", "policy": policy, "subjects": subjects,
+        "factors": {"spv.mode": ["depth", "grey"]}, "repetitions": repetitions}))
     return load_sweep(tmp_path / "sweep.yaml")
 
 

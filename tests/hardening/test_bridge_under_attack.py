@@ -1,5 +1,5 @@
 """The hostile-client cases against a running `bridge` node (loopback only, bounded loops): every
-slot held by pinging clients, garbage, binary hellos and a client that stops reading — and the
+slot held by pinging clients (a controller and watchers), garbage, binary hellos and a client that stops reading — and the
 headset that wants control still gets in and receives the phosphene frames."""
 from __future__ import annotations
 
@@ -43,13 +43,14 @@ def test_a_headset_gets_in_and_streams_while_the_bridge_is_attacked(graph, probe
     class Port:                                             # what the client helpers need of a server
         port, tcp_port = int(m.group(1)), int(m.group(2))
 
-    pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    # (the bridge subscribes to /spv/image once clients that want images connect)
+    pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS)
     image = array_to_image(np.full((120, 160), 128, np.uint8), "mono8")
 
     async def run():
         pingers = []
-        for i in range(16):
-            ws, welcome = await ws_hello(Port, name=f"pinger {i}")
+        for i in range(16):                                   # a controller, then watchers
+            ws, welcome = await ws_hello(Port, name=f"pinger {i}", role="control" if i == 0 else "watch")
             assert welcome["type"] == "welcome"
             pingers.append(ws)
         binary = await ws_connect(Port)

@@ -1,54 +1,84 @@
-"""Hostile-but-fair clients against the headset server core on loopback (issue 16, point 4):
-slot exhaustion, a `bye` on every refusal, a prompt close after refusal, slots freed at once.
+"""Hostile-but-fair clients against the headset server core on loopback (issues 16 and 27):
+slot exhaustion and the line for control, a `bye` on every refusal, a prompt close after
+refusal (also of a client that keeps sending), slots freed at once, an empty key refused.
 Every loop is bounded; the timeouts below are failure bounds, not measurements."""
 from __future__ import annotations
 
 import asyncio
 import base64
 import os
+import time
 
+import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.frames import Frame, Opcode
 
 from raspv_hmd import protocol as P
+from raspv_hmd.keymap import key_change
+from raspv_hmd.server import CLOSE_TIMEOUT_S
 
 from .conftest import TcpClient, ws_connect, ws_hello, ws_next_json
 
 WS_CLOSE_LINGER_S = 10.0      # what a client that stops reading used to cost (websockets' default close_timeout)
 
 
-def test_a_controlling_headset_always_gets_a_slot(start_server, server_events):
-    """16 local clients that only ping hold every slot; a headset that wants control still gets in
-    (a passive client is evicted with a `bye` saying why); a watcher arriving then is refused."""
+def test_a_controlling_headset_gets_a_watchers_slot(start_server, server_events):
+    """A controller and 15 watchers that only ping hold every slot; a headset that wants control
+    still gets in (the least recently active watcher is evicted with a `bye` saying why); a
+    watcher arriving then is refused."""
     server = start_server(max_clients=16)
 
     async def run():
+        controller, _ = await ws_hello(server, name="controller")
         pingers = []
-        for i in range(16):
-            ws, welcome = await ws_hello(server, name=f"pinger {i}")
+        for i in range(15):
+            ws, welcome = await ws_hello(server, name=f"pinger {i}", role="watch")
             assert welcome["type"] == "welcome"
             pingers.append(ws)
         for i, ws in enumerate(pingers):
             await ws.send(P.client_message("ping", t=i))
             await ws_next_json(ws, "pong")
-        controller = server.stats().clients[0].name
         headset, welcome = await ws_hello(server, name="headset", role="control")
         assert welcome["type"] == "welcome", welcome
-        stats = server.stats()
-        names = [c.name for c in stats.clients]
-        assert len(names) == 16 and "headset" in names and controller in names
-        evicted = [ws for ws, i in zip(pingers, range(16)) if f"pinger {i}" not in names]
-        assert len(evicted) == 1
-        bye = await ws_next_json(evicted[0], "bye")
+        names = [c.name for c in server.stats().clients]
+        assert len(names) == 16 and "headset" in names and "controller" in names
+        assert "pinger 0" not in names            # none sent control input: the earliest goes
+        bye = await ws_next_json(pingers[0], "bye")
         assert "evicted" in bye["reason"] and "control" in bye["reason"]
         # a passive watcher never evicts anyone: the server is full for it
         watcher, answer = await ws_hello(server, name="watcher", role="watch")
         assert answer["type"] == "bye" and "full" in answer["reason"]
-        for ws in [*pingers, headset, watcher]:
+        for ws in [controller, *pingers, headset, watcher]:
             await ws.close()
 
     asyncio.run(run())
     assert any("evicted" in e for e in server_events)
+
+
+def test_clients_in_line_for_control_keep_their_place(start_server):
+    """20 clients that want control and 16 slots: clients 17-20 are refused (`bye`: full), never
+    clients 1-16, who are next in line; when the controller leaves, client 2 controls."""
+    server = start_server(max_clients=16)
+
+    async def run():
+        clients, answers = [], []
+        for i in range(1, 21):
+            ws, answer = await ws_hello(server, name=f"client {i}", role="control")
+            clients.append(ws)
+            answers.append(answer)
+        assert [a["type"] for a in answers] == ["welcome"] * 16 + ["bye"] * 4, answers
+        assert all("full" in a["reason"] and "in line for control" in a["reason"] for a in answers[16:])
+        stats = server.stats()
+        assert sorted(c.name for c in stats.clients) == sorted(f"client {i}" for i in range(1, 17))
+        assert stats.dropped.get("evicted", 0) == 0 and stats.rejected == {"full": 4}
+        await clients[0].close()
+        role = await ws_next_json(clients[1], "role")
+        while role["role"] != "control":
+            role = await ws_next_json(clients[1], "role")
+        for ws in clients:
+            await ws.close()
+
+    asyncio.run(run())
 
 
 def test_a_watcher_is_evicted_before_a_client_waiting_for_control(start_server):
@@ -103,21 +133,99 @@ def test_every_refusal_says_bye(start_server):
     assert rejected == {"binary": 1, "hello_timeout": 1, "token": 1, "bad_kind": 1, "oversized": 1, "full": 1}, rejected
 
 
+async def _raw_ws(server, first: bytes | str):
+    """A raw WebSocket client that never answers a closing handshake; sends ``first``."""
+    reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
+    key = base64.b64encode(os.urandom(16)).decode()
+    writer.write((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nUpgrade: websocket\r\n"
+                  f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+    await writer.drain()
+    assert b" 101 " in await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
+    opcode = Opcode.TEXT if isinstance(first, str) else Opcode.BINARY
+    writer.write(Frame(opcode, first.encode() if isinstance(first, str) else first).serialize(mask=True))
+    await writer.drain()
+    return reader, writer
+
+
+async def _keep_sending_until_closed(reader, writer, bound_s: float) -> tuple[bytes, float]:
+    """Send a ping every 10 ms while reading; (everything read, seconds from the `bye` to the
+    server's close)."""
+    async def pinger():
+        while True:
+            writer.write(Frame(Opcode.TEXT, P.client_message("ping", t=1).encode()).serialize(mask=True))
+            await writer.drain()
+            await asyncio.sleep(0.01)
+
+    task = asyncio.create_task(pinger())
+    data, t_bye = b"", None
+    try:
+        while chunk := await asyncio.wait_for(reader.read(65536), bound_s):
+            data += chunk
+            if t_bye is None and b'"type":"bye"' in data:
+                t_bye = time.monotonic()
+    except (ConnectionError, asyncio.TimeoutError):
+        pass
+    closed = time.monotonic()
+    task.cancel()
+    writer.close()
+    assert t_bye is not None, data[-300:]
+    return data, closed - t_bye
+
+
+def test_a_client_that_keeps_sending_after_its_bye_is_closed_at_once(start_server):
+    """A refused hello, a drop for refused messages, an eviction: the client is told why, goes on
+    sending instead of answering the closing handshake, and the server closes the connection at
+    once — not after its closing-handshake timeout (1 s). The bounds are failure bounds."""
+    server = start_server(max_clients=2, max_refused=5)
+
+    async def run():
+        reader, writer = await _raw_ws(server, b"\x00 a binary hello")
+        data, after = await _keep_sending_until_closed(reader, writer, 5.0)
+        assert b"JSON text" in data and after < CLOSE_TIMEOUT_S / 2, after
+        reader, writer = await _raw_ws(server, P.client_message("hello", name="flooder", role="watch"))
+        for _ in range(5):
+            writer.write(Frame(Opcode.TEXT, b"junk").serialize(mask=True))
+        data, after = await _keep_sending_until_closed(reader, writer, 5.0)
+        assert b"refused" in data and after < CLOSE_TIMEOUT_S / 2, after
+        controller, _ = await ws_hello(server, name="controller")
+        reader, writer = await _raw_ws(server, P.client_message("hello", name="watcher", role="watch"))
+        evicting = asyncio.create_task(ws_hello(server, name="headset"))
+        data, after = await _keep_sending_until_closed(reader, writer, 5.0)
+        assert b"evicted" in data and after < CLOSE_TIMEOUT_S / 2, after
+        headset, welcome = await evicting
+        assert welcome["type"] == "welcome"
+        await headset.close()
+        await controller.close()
+
+    asyncio.run(run())
+
+
+def test_an_empty_key_is_a_protocol_error_with_its_reason(start_server, server_events):
+    server = start_server()
+
+    async def run():
+        ws, _ = await ws_hello(server, name="keys")
+        await ws.send(P.client_message("key", key=""))
+        refused = await ws_next_json(ws, "refused")
+        assert refused["code"] == "bad_field" and "'key' must name a key" in refused["reason"]
+        await ws.close()
+
+    asyncio.run(run())
+    assert not any("invalid literal" in e for e in server_events), server_events
+    for key in ("", "12"):                     # no mode key either (the key map's own guard)
+        with pytest.raises(KeyError):
+            key_change(key, {"mode": "depth"}, ["depth", "edges"])
+
+
 def test_a_client_dropped_for_refused_messages_is_closed_promptly_even_if_it_stops_reading(start_server):
     """20 refused messages from a client that reads nothing: the server says bye and closes the
     TCP connection itself instead of waiting for a closing handshake that never comes."""
     server = start_server(max_refused=20)
 
     async def run():
-        reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
-        key = base64.b64encode(os.urandom(16)).decode()
-        writer.write((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nUpgrade: websocket\r\n"
-                      f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
-        await writer.drain()
-        assert b" 101 " in await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
-        frames = [P.client_message("hello", name="flooder")] + ["junk"] * 20
-        for text in frames:
-            writer.write(Frame(Opcode.TEXT, text.encode()).serialize(mask=True))
+        reader, writer = await _raw_ws(server, P.client_message("hello", name="flooder"))
+        for _ in range(20):
+            writer.write(Frame(Opcode.TEXT, b"junk").serialize(mask=True))
         await writer.drain()
         # never answer the server's close frame: only the server can end the connection now
         data = b""

@@ -55,7 +55,6 @@ def test_frames_head_and_teleop_through_the_bridge(graph, probe):
     g, url, tcp_port = start_bridge(graph, max_linear=1.0, deadman_timeout=0.3)
     heads = probe.subscribe(topics.HEAD_ORIENTATION, QuaternionStamped, wait_for_publishers=1, timeout=60)
     twists = probe.subscribe(topics.CMD_VEL, Twist, wait_for_publishers=1, timeout=60)
-    pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
     image = np.zeros((200, 300), np.uint8)
     image[50:150, 100:200] = 255
     reports = []
@@ -64,6 +63,8 @@ def test_frames_head_and_teleop_through_the_bridge(graph, probe):
         ClientOptions(max_frames=40, duration_s=60, head=HeadScript(period_s=1.0), head_rate_hz=10.0,
                       keep_last_frame=True)))))
     client.start()
+    # the bridge subscribes to /spv/image while a client wants images (this raw TCP client)
+    pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
     while client.is_alive():
         msg = array_to_image(image, "mono8")
         msg.header.stamp = probe.node.get_clock().now().to_msg()
@@ -85,19 +86,25 @@ def test_frames_head_and_teleop_through_the_bridge(graph, probe):
     # apart), ending with the newest
     assert {rounded(m) for m in got} <= set(sent) and len(got) >= 2
 
+    refusal = r"ignoring /spv/image in '32FC1'; expected mono8 or rgb8"
+
     async def drive():
         ws = await controller(url)
         await ws.send(P.client_message("twist", linear=3.0, angular=0.5))     # above max_linear
         twists.wait(2, timeout=30, predicate=lambda t: True)                  # the command, then the stop
+        # a wrong encoding on /spv/image, while this client wants images (the bridge subscribes then)
+        bad = array_to_image(np.zeros((4, 4), np.float32), "32FC1")
+        for _ in range(300):
+            pub.publish(bad)
+            if re.search(refusal, g.output):
+                break
+            await asyncio.sleep(0.1)
         await ws.close()
     asyncio.run(drive())
     first, stop = twists.wait(2, timeout=30)
     assert (first.linear.x, first.angular.z) == (1.0, 0.5)                    # clamped
     assert (stop.linear.x, stop.angular.z) == (0.0, 0.0)                      # dead-man
-
-    bad = array_to_image(np.zeros((4, 4), np.float32), "32FC1")
-    pub.publish(bad)
-    g.wait_for_output(r"ignoring /spv/image in '32FC1'; expected mono8 or rgb8", timeout=30)
+    g.wait_for_output(refusal, timeout=5)
     assert g.running()
 
 

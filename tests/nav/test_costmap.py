@@ -8,7 +8,7 @@ from raspv_camera.synthetic_scene import Box, SyntheticRoom, camera_rotation
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_nav.costmap import Costmap, CostmapConfig, inflate_obstacles
 from raspv_nav.obstacle_layer import ObstacleLayer, ObstacleLayerConfig, observe_depth
-from raspv_nav.occupancy import OCCUPIED, UNKNOWN, OccupancyGrid
+from raspv_common.occupancy import OCCUPIED, UNKNOWN, OccupancyGrid
 
 CAM = CameraIntrinsics.from_hfov(320, 240, 60.0)
 ROOM = (8.0, 6.0)

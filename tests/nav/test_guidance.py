@@ -10,7 +10,7 @@ from raspv_hmd.audio_cues import CueSettings, cues_message, listener_from_world
 from raspv_nav.assistant import NavigationAssistant
 from raspv_nav.guidance import Guidance, nearest_obstacle_ahead
 from raspv_nav.motion import MapAlignment, planar_transform
-from raspv_nav.occupancy import OCCUPIED, OccupancyGrid
+from raspv_common.occupancy import OCCUPIED, OccupancyGrid
 from raspv_perception.stair_model import Staircase, StairDirection
 from raspv_spv.config import spv_config
 from raspv_spv.frame_inputs import FrameInputs

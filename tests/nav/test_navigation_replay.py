@@ -18,7 +18,7 @@ from raspv_bags.from_frames import RgbdBagWriter
 from raspv_common import topics
 from raspv_nav.motion import planar_pose, planar_transform
 from raspv_nav.nav_msg import path_from_msg
-from raspv_nav.occupancy import save_map
+from raspv_common.occupancy import save_map
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

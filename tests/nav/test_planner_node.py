@@ -10,7 +10,7 @@ from raspv_camera.synthetic_scene import SyntheticRoom
 from raspv_common import topics
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.qos import LATCHED_QOS
-from raspv_nav.occupancy import OCCUPIED, OccupancyGrid, save_map
+from raspv_common.occupancy import OCCUPIED, OccupancyGrid, save_map
 
 pytestmark = pytest.mark.integration
 

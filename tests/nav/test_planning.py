@@ -8,7 +8,7 @@ from scipy.sparse.csgraph import dijkstra
 from raspv_nav.astar import AStarGrid, astar_reference, blocked_border, chain_cost, grid_graph
 from raspv_nav.costmap import Costmap, CostmapConfig, inflate_obstacles
 from raspv_nav.global_planner import GlobalPlanner, NoPathError, path_length
-from raspv_nav.occupancy import FREE, OCCUPIED, UNKNOWN, MapFormatError, OccupancyGrid, inflate, load_map, save_map
+from raspv_common.occupancy import FREE, OCCUPIED, UNKNOWN, MapFormatError, OccupancyGrid, inflate, load_map, save_map
 
 RES = 0.05
 

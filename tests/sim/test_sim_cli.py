@@ -5,7 +5,7 @@ import matplotlib.pyplot as plt
 import pytest
 import yaml
 
-from raspv_nav.occupancy import FREE, OCCUPIED, load_map
+from raspv_common.occupancy import FREE, OCCUPIED, load_map
 from raspv_sim.sim_cli import main as sim_cli
 
 

@@ -48,3 +48,22 @@ def test_lockstep_steps_when_the_last_frame_is_answered():
     assert ls.take() == (0.5, -0.2)                             # with the last command
     with pytest.raises(ValueError):
         Lockstep(timeout_s=0.0)
+
+
+def test_lockstep_participants_hold_and_restart():
+    ls = Lockstep(timeout_s=2.0, participants=frozenset({"planner"}))
+    assert ls.poll(0.0) and ls.take() == (0.0, 0.0)
+    ls.published(0.1, wall=1.0)
+    assert not ls.answer(0.1, 0.4, 0.1)                        # the subject answered; the planner not yet
+    assert not ls.poll(1.5)
+    assert ls.answer(0.1, 0.0, 0.0, who="planner")             # now both: the step goes with the subject's command
+    assert ls.poll(1.6) and ls.take() == (0.4, 0.1)
+    ls.published(0.2, wall=2.0)
+    ls.answer(0.2, 0.0, 0.0, who="planner")
+    assert ls.answer(0.2, 0.3, 0.0)                            # in either order
+    ls.hold = True
+    assert not ls.poll(100.0) and ls.timeouts == 0              # held: no step, no timeout
+    ls.hold = False
+    ls.restart()                                                # a new trial: at once, standing still
+    assert not ls.answer(0.2, 1.0, 1.0)                         # an answer to a frame before it does not count
+    assert ls.poll(100.0) and ls.take() == (0.0, 0.0)

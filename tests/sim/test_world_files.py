@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from raspv_nav.occupancy import FREE, OCCUPIED
+from raspv_common.occupancy import FREE, OCCUPIED
 from raspv_sim.occupancy_export import world_occupancy
 from raspv_sim.simulator import SimConfig, Simulation
 from raspv_sim.world_spec import (BUILTIN_CLASSES, WORLDS_DIR, WorldFileError, load_world, parse_world,

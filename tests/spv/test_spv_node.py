@@ -34,8 +34,9 @@ def test_spv_node_turns_camera_frames_into_phosphene_images(graph, probe):
     assert m.focal_px == pytest.approx(300 / (2 * np.tan(np.radians(10))), rel=1e-5)
     img = probe.wait_for_message(topics.SPV_IMAGE, Image, timeout=60, predicate=lit)
     assert (img.width, img.height, img.encoding) == (300, 180, "mono8")
+    # (until the camera's first frame the no-data ring is shown)
     frame = probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=30,
-                                   predicate=lambda f: max(f.levels) > 0)
+                                   predicate=lambda f: f.mode == "depth" and max(f.levels) > 0)
     assert frame.map_id == 1 and frame.mode == "depth" and frame.temporal
     assert len(frame.levels) == len(frame.brightness) == 240
     assert 0 <= min(frame.brightness) and max(frame.brightness) <= 1.0
@@ -72,7 +73,9 @@ def test_parameters_change_at_run_time_and_bad_values_are_refused(graph, probe):
     assert (img.width, img.height) == (200, 120)
     m = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=30, qos=LATCHED_QOS,
                                predicate=lambda m: m.device == "argus_ii" and len(m.x) == 60)
-    assert m.map_id == 4                 # one rebuild per parameter: argus_ii with 200, then the device's 60
+    # one rebuild per parameter, each a new map id (the map or its sprites changed): green output,
+    # argus_ii with 200, then the device's 60
+    assert m.map_id == 5
     [(_, ok, _)] = probe.set_params("spv", {"rate": 30.0})             # a new display timer
     assert ok
     probe.collect(topics.SPV_IMAGE, Image, 10, timeout=30)
@@ -107,16 +110,17 @@ def test_bad_input_is_skipped_with_one_warning_and_display_goes_on(graph, probe)
             break
         time.sleep(0.5)
     g.wait_for_output(mismatch, timeout=5)
-    col = probe.subscribe(topics.SPV_IMAGE, Image)
+    col = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
+    shown = lambda f: f.mode == "depth" and max(f.levels) > 0           # noqa: E731 (not the no-data ring)
     for _ in range(20):                                                  # NaN, inf and 0 depth: rendered
         info_pub.publish(intrinsics_to_camera_info(cam))
         depth_pub.publish(array_to_image(depth, "32FC1"))
         try:
-            col.wait(1, timeout=0.5, predicate=lit)
+            col.wait(1, timeout=0.5, predicate=shown)
             break
         except TimeoutError:
             continue
-    assert any(lit(m) for m in col.messages)
+    assert any(shown(m) for m in col.messages)
     probe.unsubscribe(col)
     assert g.running() and "Traceback" not in g.output
     assert g.output.count("ignoring depth image") == 1                   # rate-limited

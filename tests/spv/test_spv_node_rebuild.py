@@ -47,11 +47,12 @@ def test_a_new_sprite_model_is_built_in_the_background_and_swapped_in(graph, pro
     assert not ok and "the axon_map model needs a retinal layout; orion is cortical" in why
     assert probe.get_params("spv", ["device"]) == {"device": "argus_ii_axon"}
     # several changes in a row: only the newest is built, the map ids follow the accepted changes
+    # (a new rho changes the sprites: a new map id too, so clients drawing the sprites get them)
     for results in (probe.set_params("spv", {"sprite_model": "", "rho_um": 200.0}),
                     probe.set_params("spv", {"device": "prima"})):
         assert all(ok for _, ok, _ in results), results
     m = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=180, qos=LATCHED_QOS,
                                predicate=lambda m: m.device == "prima")
-    assert len(m.x) == 378 and m.map_id == 3
-    frames.wait(1, timeout=60, predicate=lambda f: f.map_id == 3 and max(f.levels) > 0)
+    assert len(m.x) == 378 and m.map_id == 4
+    frames.wait(1, timeout=60, predicate=lambda f: f.map_id == 4 and max(f.levels) > 0)
     assert g.running() and "Traceback" not in g.output

@@ -7,8 +7,9 @@ from raspv_spv.config import spv_config
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern, ring_mask
 from raspv_spv.simulator import PhospheneSimulator
-from raspv_spv.staleness import (FALLBACK_MODE, NO_DATA, UNKNOWN_BOUND_S, StalenessMonitor, expected_with,
-                                 plan_display, stale_bound, watched_inputs)
+from raspv_spv.staleness import (ALIVE, FALLBACK_MODE, GONE, LATE_S, NO_DATA, PAUSED, RECOVER_S, UNKNOWN_BOUND_S,
+                                 StalenessMonitor, expected_with, late_bound, plan_display, required_inputs,
+                                 stale_bound, watched_inputs)
 
 TICK_S = 0.02          # one display tick at 50 Hz
 TARGET_S = 0.3         # detected and shown within this long after the last message (issue 16)
@@ -72,6 +73,67 @@ def test_scene_inputs_that_never_came_are_stale_once_the_camera_flows():
     m.arrived("scene_labels", last + 0.06)
     assert m.check(last + 0.07) == frozenset()
     assert expected_with(frozenset({"color", "camera"})) == {}
+
+
+def test_an_alive_producer_is_late_not_stale_until_its_late_bound():
+    """Dead or slow: the same gap is a fault from a dead (or foreign) producer and lateness from a
+    live one (issue 21)."""
+    m = StalenessMonitor()
+    m.watch({"scene", "depth"})
+    last = feed(m, "scene", 0.0, 0.1, 10)
+    feed(m, "depth", 0.0, 0.1, 10)
+    gap = last + 0.5                                              # twice the dead-producer bound
+    assert m.check(gap, {"scene": ALIVE, "depth": ALIVE}) == frozenset()
+    assert m.check(gap, {"scene": GONE, "depth": ALIVE}) == {"scene"}
+    assert m.check(gap) == {"scene", "depth"}                     # nothing known of the producers: gaps alone
+    assert m.episodes == 2 and m.late_episodes == 0
+    assert late_bound(0.1) == LATE_S and late_bound(0.5) == 1.5   # a slow input: 3 of its periods
+    m2 = StalenessMonitor()
+    m2.watch({"scene"})
+    last = feed(m2, "scene", 0.0, 0.1, 10)
+    assert m2.check(last + LATE_S - 0.01, {"scene": ALIVE}) == frozenset()
+    assert m2.check(last + LATE_S + 0.01, {"scene": ALIVE}) == {"scene"}   # alive but hung: stale at last
+    assert (m2.episodes, m2.late_episodes) == (1, 1)
+
+
+def test_after_a_late_episode_an_input_counts_again_only_when_it_flows_again():
+    m = StalenessMonitor()
+    m.watch({"scene"})
+    last = feed(m, "scene", 0.0, 0.1, 10)
+    assert m.check(last + 1.2, {"scene": ALIVE}) == {"scene"}
+    m.arrived("scene", last + 1.25)                               # one late message: still stale (hysteresis)
+    assert m.check(last + 1.26, {"scene": ALIVE}) == {"scene"}
+    m.arrived("scene", last + 1.25 + RECOVER_S + 0.1)             # the next one too slow as well
+    assert m.check(last + 1.25 + RECOVER_S + 0.11, {"scene": ALIVE}) == {"scene"}
+    t = last + 1.25 + RECOVER_S + 0.1
+    m.arrived("scene", t + 0.1)                                   # two close together: back
+    assert m.check(t + 0.11, {"scene": ALIVE}) == frozenset()
+    assert m.episodes == 1
+
+
+def test_a_paused_source_is_never_stale_and_a_camera_never_seen_shows_the_ring():
+    m = StalenessMonitor()
+    needs = frozenset({"depth", "camera"})
+    m.watch(watched_inputs(needs, []), expected_with(needs), required_inputs(needs))
+    assert m.check(0.0) == {"depth"}                              # the camera never delivered: the ring
+    assert m.episodes == 0                                        # ... but waiting is not an episode
+    last = feed(m, "depth", 1.0, 0.05, 10)
+    assert m.check(last + 0.01) == frozenset()
+    assert m.check(last + 60.0, {"depth": PAUSED}) == frozenset()  # a replay paused by the user
+    assert m.check(last + 60.0, {"depth": GONE}) == {"depth"}
+    assert required_inputs(frozenset({"scene_labels", "camera"})) == {"depth"}
+    assert required_inputs(frozenset({"color", "camera"})) == {"color"}
+
+
+def test_scene_outputs_never_seen_wait_longer_for_a_live_scene_node():
+    m = StalenessMonitor()
+    needs = frozenset({"scene", "scene_labels", "camera"})
+    m.watch(watched_inputs(needs, []), expected_with(needs), required_inputs(needs))
+    last = feed(m, "depth", 10.0, 0.1, 4)
+    alive = {"scene": ALIVE, "scene_labels": ALIVE, "depth": ALIVE}
+    assert m.check(last + 0.05, alive) == frozenset()             # the scene node starting: wait for it
+    assert m.check(10.0 + LATE_S + 0.01, alive) == {"scene", "scene_labels"}
+    assert m.episodes == 0
 
 
 def test_check_returns_the_same_set_while_nothing_changes():

@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 import yaml
 
+from raspv_common.image_files import decode_image_file
 from raspv_common.text_files import read_yaml_file
 
 FREE, OCCUPIED, UNKNOWN = 0, 100, -1
@@ -79,11 +80,7 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     if abs(origin[2]) > 1e-9:
         raise MapFormatError(f"{yaml_path}: 'origin' yaw must be 0 (rotated maps are not supported)")
     image_path = (yaml_path.parent / str(meta["image"])).resolve()
-    try:
-        data = np.fromfile(image_path, dtype=np.uint8)   # read here: cv2.imread logs its own warning
-    except OSError:
-        data = None
-    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data is not None and data.size else None
+    img = decode_image_file(image_path, cv2.IMREAD_GRAYSCALE)     # OpenCV's own log line silenced
     if img is None:
         raise MapFormatError(f"{yaml_path}: 'image' {image_path} is not a readable image")
     occ_t, free_t = meta.get("occupied_thresh", 0.65), meta.get("free_thresh", 0.196)

@@ -1,0 +1,180 @@
+"""Whether the node behind a topic lives, and what its source is doing (ROS side).
+
+Gaps in data cannot tell a dead node from a slow one. Every RASPV node
+(:class:`~raspv_common.node.RaspvNode`) owns a publisher on ``/raspv/alive/<node name>``
+(:func:`alive_topic`) on which it publishes, latched, what its source is doing —
+:data:`DELIVERING` (the default), :data:`PAUSED` (a known pause: a replay paused by the user) or
+:data:`DOWN` (nothing will come: a camera unplugged, a recording that does not open) — and who
+it is: its pid, start time and pid namespace (:func:`raspv_common.process_state.identity`).
+
+A consumer (:class:`ProducerWatch`, used by the spv node and the bridge) resolves which nodes
+publish each of its input topics (``get_publishers_info_by_topic``, every :data:`REFRESH_S`) and
+watches their announcements. Whether a producer lives:
+
+- **on this machine** (same pid namespace): from ``/proc`` (:mod:`raspv_common.process_state`) —
+  killed or stopped with SIGSTOP is known at once, and a process starved of CPU stays alive
+  however late its threads run. (DDS leases are not used here: on this 2-core machine, loaded
+  by the graph and a browser, the scene and odometry nodes' 0.2 s leases lapsed every few
+  seconds while they worked.)
+- **on another machine**: from DDS *automatic liveliness* of the alive publisher (lease
+  :data:`LEASE_S`, requested :data:`WATCH_LEASE_S`; measured here, a SIGKILL or SIGSTOP is
+  reported 110–160 ms later).
+
+Per input it reports one of the states of :mod:`raspv_spv.staleness`: ``alive`` (a producer
+lives and delivers), ``paused``, ``gone`` (its producers died, are stopped, or announced
+``down``) or ``unknown`` (its publishers announce nothing: a foreign driver, a test probe).
+:mod:`raspv_spv.staleness` turns these into bounds.
+"""
+from __future__ import annotations
+
+
+import json
+import time
+
+from rclpy.duration import Duration
+from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+
+from raspv_common import process_state as proc
+
+ALIVE_PREFIX = "/raspv/alive"
+LEASE_S = 0.2          # a node's process asserts its liveliness within this [s] (DDS automatic liveliness)
+WATCH_LEASE_S = 0.25   # a consumer requests this (≥ the lease); a dead producer is reported ≈ this late [s]
+REFRESH_S = 0.5        # how often a consumer looks up which nodes publish its inputs [s]
+STATES_TTL_S = 0.02    # a consumer's verdicts are re-read from /proc at most this often [s]
+DELIVERING, PAUSED, DOWN = "delivering", "paused", "down"
+# producer states per input (the same strings as raspv_spv.staleness: ALIVE, PAUSED, GONE, UNKNOWN)
+ALIVE, GONE, UNKNOWN = "alive", "gone", "unknown"
+
+
+def alive_topic(node_fqn: str) -> str:
+    """``/raspv/alive/camera`` for the node ``/camera`` (``/raspv/alive/ns/camera`` in a namespace)."""
+    return ALIVE_PREFIX + (node_fqn if node_fqn.startswith("/") else "/" + node_fqn)
+
+
+def _qos(lease_s: float) -> QoSProfile:
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL, liveliness=LivelinessPolicy.AUTOMATIC,
+                      liveliness_lease_duration=Duration(seconds=lease_s))
+
+
+class AliveAnnouncement:
+    """A node's ``/raspv/alive/<name>`` publisher: its liveliness, and its source's state."""
+
+    def __init__(self, node: Node) -> None:
+        self._pub = node.create_publisher(String, alive_topic(node.get_fully_qualified_name()), _qos(LEASE_S))
+        self.state = ""
+        self.set(DELIVERING)
+
+    def set(self, state: str) -> None:
+        """Announce ``state`` (:data:`DELIVERING`, :data:`PAUSED` or :data:`DOWN`) when it changes."""
+        if state not in (DELIVERING, PAUSED, DOWN):
+            raise ValueError(f"a source's state is delivering, paused or down, got {state!r}")
+        if state != self.state:
+            self.state = state
+            self._pub.publish(String(data=json.dumps({"state": state, **proc.identity()})))
+
+
+class _Producer:
+    """What a consumer knows of one producing node: its announcement and its DDS liveliness."""
+
+    __slots__ = ("alive", "ever_alive", "state", "pid", "started", "local", "sub")
+
+    def __init__(self) -> None:
+        self.alive = 0                 # DDS: alive writers on its alive topic
+        self.ever_alive = False
+        self.state = DELIVERING
+        self.pid = self.started = 0
+        self.local = False             # the same pid namespace: /proc tells whether it lives
+        self.sub = None
+
+    def announced(self, data: str) -> None:
+        try:
+            info = json.loads(data)
+        except ValueError:
+            info = {"state": data}     # a bare state word
+        if not isinstance(info, dict):
+            return
+        self.state = str(info.get("state", DELIVERING))
+        self.pid, self.started = int(info.get("pid") or 0), int(info.get("started") or 0)
+        self.local = bool(self.pid) and bool(proc.NAMESPACE) and info.get("ns") == proc.NAMESPACE
+
+    @property
+    def verdict(self) -> str:
+        if self.local:
+            if proc.process_state(self.pid, self.started) != proc.RUNNING:
+                return GONE
+            return {PAUSED: PAUSED, DOWN: GONE}.get(self.state, ALIVE)
+        if self.alive > 0:
+            return {PAUSED: PAUSED, DOWN: GONE}.get(self.state, ALIVE)
+        return GONE if self.ever_alive else UNKNOWN
+
+
+class ProducerWatch:
+    """Per input topic, the state of the nodes publishing it (see the module docstring).
+
+    ``watch({input name: topic})`` sets the inputs; :meth:`states` (any thread) returns
+    {input name: state}, re-read from ``/proc`` at most every :data:`STATES_TTL_S`.
+    """
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        self._topics: dict[str, str] = {}
+        self._publishers: dict[str, frozenset[str]] = {}       # topic → producing node names
+        self._producers: dict[str, _Producer] = {}             # node name → what is known of it
+        self._states: dict[str, str] = {}
+        self._states_at = -1.0
+        self._own = node.get_fully_qualified_name()
+        node.create_timer(REFRESH_S, self.refresh)
+
+    def watch(self, inputs: dict[str, str]) -> None:
+        """Watch the producers of these {input name: topic} (others are forgotten)."""
+        self._topics = dict(inputs)
+        self.refresh()
+
+    def states(self) -> dict[str, str]:
+        """{input name: alive | paused | gone | unknown} (a dict not changed after it is returned)."""
+        now = time.monotonic()
+        if now - self._states_at >= STATES_TTL_S:
+            self._update()
+            self._states_at = now
+        return self._states
+
+    def refresh(self) -> None:
+        """Look up who publishes each watched topic and watch the alive topics of new producers."""
+        for topic in set(self._topics.values()):
+            try:
+                infos = self.node.get_publishers_info_by_topic(topic)
+            except Exception:  # noqa: BLE001 - the context is shutting down
+                return
+            names = frozenset(_fqn(i.node_namespace, i.node_name) for i in infos) - {self._own}
+            self._publishers[topic] = names
+            for name in names:
+                if name not in self._producers:
+                    self._producers[name] = self._subscribe(name)
+
+    def _subscribe(self, name: str) -> _Producer:
+        p = _Producer()
+
+        def on_liveliness(info) -> None:
+            p.alive = info.alive_count
+            p.ever_alive = p.ever_alive or info.alive_count > 0
+
+        p.sub = self.node.create_subscription(String, alive_topic(name), lambda m: p.announced(m.data),
+                                              _qos(WATCH_LEASE_S),
+                                              event_callbacks=SubscriptionEventCallbacks(liveliness=on_liveliness))
+        return p
+
+    def _update(self) -> None:
+        states = {}
+        for input_name, topic in list(self._topics.items()):
+            verdicts = {p.verdict for n in self._publishers.get(topic, ()) if (p := self._producers.get(n)) is not None}
+            states[input_name] = next((v for v in (ALIVE, PAUSED, GONE) if v in verdicts), UNKNOWN)
+        if states != self._states:
+            self._states = states
+
+
+def _fqn(namespace: str, name: str) -> str:
+    return (namespace.rstrip("/") + "/" + name) if namespace not in ("", "/") else "/" + name

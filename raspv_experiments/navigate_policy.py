@@ -1,0 +1,222 @@
+"""``navigate``: the default virtual patient — walks to a goal seeing only the phosphenes (no rclpy).
+
+What it knows besides the phosphene image (``/spv/frame``, ``/spv/map``) is what a person in
+the experiment knows: which representation it is shown (the mode and overlays named in each
+frame, as a subject is told the condition: a trail is looked for only when the ``path`` overlay
+is on), its eye height and the head pitch it holds, where the goal is relative to
+where it started (the instructions: "the far end of the hallway", "the bin in the meeting room",
+as ``goal`` [m] in the start frame: x ahead, y left), and how it moved since — by path
+integration of the commands its body carried out (motor noise is not felt, so the estimate
+drifts as a person's does). It does not see the world, the camera or the map.
+
+Each frame:
+
+1. **A trail** (only with the navigation path overlay, which lights the path at full level and
+   halves everything else): phosphenes clearly above half (``TRAIL_LEVEL``, and 75 % of the
+   brightest seen lately) are a trail on the floor; it is followed by pure pursuit on the point about ``lookahead`` m ahead,
+   and its direction remembered: when it leaves the view the subject turns back toward it.
+2. **Obstacles**: phosphenes in the same image row look at the same floor distance (a level
+   head), so the floor of a row has one brightness; whatever is brighter than that row's floor
+   by ``contrast_threshold`` stands out — nearer than the floor in depth modes, walls and
+   obstacles in Wall-Obstacles, bright objects in downsampling (dark ones do not stand out:
+   that is the representation's weakness, not the subject's). The row's floor is the lower of
+   its median now and its median over the last seconds (so a wall that fills a row still
+   stands out while it comes nearer). Only what stands out in two frames running counts (one
+   frame's perceptual noise is not an obstacle). What stands out is placed on the floor through the head
+   pose (its ray's floor point: an overestimate for things above the floor, as for a person
+   who judges distance by height in the view) and remembered for a few seconds in the
+   path-integrated frame, so an obstacle that left the view is still walked around.
+3. **Touch**: a bump (a collision the body feels: ``touch()``) makes it step back for
+   ``BACK_S`` and turn away from the side where it last saw more obstacles. (The other
+   policies' "no optic flow" cue does not work here: on a featureless floor the view does not
+   change while walking freely either.)
+4. **Steering**: among headings within ±``MAX_HEADING`` of the body, the one nearest the
+   goal's direction (or the remembered trail's) that no obstacle within ``AVOID_RANGE`` blocks
+   for a body of ``BODY_RADIUS`` + ``MARGIN``; speed falls with the nearest obstacle ahead; with
+   every heading blocked it turns on the spot toward the freer side.
+
+Frames as in :mod:`raspv_experiments.policies`; the start frame: x ahead at the start, y left.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from raspv_experiments.policies import PhospheneLayout, Policy, PolicyConfig
+
+MAX_HEADING = math.radians(70)     # headings considered, either side of the body's
+BODY_RADIUS = 0.25                 # m, the avatar's body
+MARGIN = 0.2                       # m kept from obstacles
+AVOID_RANGE = 2.2                  # m: nearer obstacles are avoided
+MEMORY_S = 4.0                     # s an obstacle out of view is remembered
+FLOOR_TAU_S = 1.5                  # s: time constant of a row's floor brightness over time
+TRAIL_MEMORY_S = 6.0               # s: turns back toward a trail seen this recently
+BACK_S = 0.8                       # s stepping back after a bump
+TRAIL_LEVEL = 0.78                 # the path overlay lights the path at full level (1) and halves the rest (≤ 4/7 with
+                                   # 8 levels): a trail is brighter than midway, with room for perceptual noise
+
+
+def _wrap(a: float | np.ndarray):
+    return (np.asarray(a) + math.pi) % (2 * math.pi) - math.pi
+
+
+def row_bands(layout: PhospheneLayout) -> np.ndarray:
+    """(N,) band index of each phosphene: phosphenes in one image row (±0.35 of the spacing)."""
+    pts = np.column_stack([layout.x, layout.y])
+    n = len(pts)
+    if n < 2:
+        return np.zeros(n, int)
+    sample = pts if n <= 1500 else pts[np.linspace(0, n - 1, 1500).astype(int)]
+    d = np.hypot(*(sample[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))
+    d[d == 0] = np.inf
+    spacing = float(np.median(d.min(axis=1)))
+    return np.round((layout.y - layout.y.min()) / max(0.7 * spacing, 1e-6)).astype(int)
+
+
+class Navigate(Policy):
+    name = "navigate"
+
+    def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None,
+                 goal: tuple[float, float] | None = None, **_) -> None:
+        super().__init__(layout, config)
+        self.goal = None if goal is None else np.asarray(goal, float)      # start frame [m]
+        self.bands = row_bands(layout)
+        self.band_ids = np.unique(self.bands)
+        self.floor_ref = np.full(self.band_ids.max() + 1, np.nan)
+        self.bearing = np.arctan2(self.ground[:, 1], self.ground[:, 0])    # NaN above the horizon
+        self._standing_out = np.zeros(len(layout.x), bool)     # stood out in the previous frame
+        self.pose = np.zeros(3)                        # path-integrated x, y [m], heading [rad] (start frame)
+        self.memory: list[tuple[float, float, float]] = []      # obstacles: (x, y, t) in the start frame
+        self.peak = 0.0
+        self.trail_heading: float | None = None        # start-frame heading where the trail was last seen
+        self.trail_t = -math.inf
+        self._touched = False
+        self._back_until = -math.inf
+        self._back_turn = 0.0
+
+    def touch(self) -> None:
+        """The body bumped into something (felt, not seen)."""
+        self._touched = True
+
+    def unblock(self, b: np.ndarray) -> tuple[float, float] | None:
+        t = self.t or 0.0
+        if self._touched:
+            self._touched = False
+            if t >= self._back_until:
+                x, y, h = self.pose
+                cs, sn = math.cos(h), math.sin(h)
+                left = sum(1 for mx, my, _ in self.memory if -sn * (mx - x) + cs * (my - y) > 0)
+                right = len(self.memory) - left
+                side = (-1.0 if left > right else 1.0) if left != right else float(self.rng.choice([-1.0, 1.0]))
+                self._back_until, self._back_turn = t + BACK_S, side
+        if t < self._back_until:
+            return -0.4 * self.config.max_linear, 0.8 * self.config.max_angular * self._back_turn
+        return None
+
+    # -- perception ----------------------------------------------------------------------------
+    def trail(self, b: np.ndarray) -> np.ndarray:
+        """Indices of the trail on the floor (with the path overlay on: it lights the path at full
+        level and halves everything else, so the trail is what is clearly above half)."""
+        top = float(b.max()) if len(b) else 0.0
+        self.peak = max(top, self.peak * 0.97)
+        if top <= 0.0 or "path" not in self.overlays:
+            return np.empty(0, int)
+        bright = (b >= TRAIL_LEVEL) & (b >= 0.75 * self.peak)
+        if bright.sum() < 2:
+            return np.empty(0, int)
+        return np.flatnonzero(bright & np.isfinite(self.ground_distance))
+
+    def obstacles(self, b: np.ndarray, exclude: np.ndarray) -> np.ndarray:
+        """Indices of phosphenes that stand out from their row's floor (see the module docstring)."""
+        alpha = 1.0 - math.exp(-self.dt / FLOOR_TAU_S) if self.dt > 0 else 0.0
+        ref = np.zeros(len(self.floor_ref))
+        for band in self.band_ids:
+            m = self.bands == band
+            now = float(np.median(b[m]))
+            old = self.floor_ref[band]
+            self.floor_ref[band] = now if math.isnan(old) else old + alpha * (now - old)
+            ref[band] = min(now, self.floor_ref[band])
+        floor = np.maximum(ref[self.bands], self.config.min_brightness)     # at the threshold is not standing out
+        out = (b > 0) & (b >= floor + self.config.contrast_threshold) & np.isfinite(self.ground_distance)
+        out[exclude] = False
+        seen, self._standing_out = out & self._standing_out, out
+        return np.flatnonzero(seen)
+
+    # -- the decision ---------------------------------------------------------------------------
+    def executed(self, v: float, w: float) -> None:
+        x, y, h = self.pose
+        h += w * self.dt
+        self.pose = np.array([x + v * self.dt * math.cos(h), y + v * self.dt * math.sin(h), float(_wrap(h))])
+
+    def _remember(self, idx: np.ndarray) -> None:
+        t = self.t or 0.0
+        x, y, h = self.pose
+        c, s = math.cos(h), math.sin(h)
+        near = idx[self.ground_distance[idx] < AVOID_RANGE + 1.0]
+        for gx, gy in self.ground[near]:
+            self.memory.append((x + c * gx - s * gy, y + s * gx + c * gy, t))
+        self.memory = [m for m in self.memory if t - m[2] <= MEMORY_S][-600:]
+
+    def _desired(self) -> float:
+        """Desired heading relative to the body [rad]: back to the trail, else to the goal, else ahead."""
+        x, y, h = self.pose
+        if self.trail_heading is not None and (self.t or 0.0) - self.trail_t <= TRAIL_MEMORY_S:
+            return float(_wrap(self.trail_heading - h))
+        if self.goal is not None:
+            return float(_wrap(math.atan2(self.goal[1] - y, self.goal[0] - x) - h))
+        return float(_wrap(-h))
+
+    def decide(self, b: np.ndarray) -> tuple[float, float]:
+        c = self.config
+        x, y, h = self.pose
+        idx = self.trail(b)
+        obstacles = self.obstacles(b, idx)
+        self._remember(obstacles)
+        if len(idx):
+            d = self.ground_distance[idx]
+            near = np.abs(d - c.lookahead) <= 0.5
+            pick = idx[near] if near.any() else idx[[int(np.argmin(np.abs(d - c.lookahead)))]]
+            gx, gy = (self.ground[pick] * b[pick, None]).sum(axis=0) / b[pick].sum()
+            bearing = math.atan2(gy, gx)
+            self.trail_heading, self.trail_t = float(_wrap(h + bearing)), self.t or 0.0
+            if abs(bearing) > math.radians(50):
+                return 0.0, c.max_angular * math.copysign(1.0, bearing)
+            v = c.max_linear * max(0.2, math.cos(bearing) ** 2)
+            return v, 2.0 * v * math.sin(bearing) / max(math.hypot(gx, gy), 0.3)
+        goal_dist = math.inf if self.goal is None else math.hypot(self.goal[0] - x, self.goal[1] - y)
+        # obstacles relative to the body, from memory (which holds this frame's too)
+        if self.memory:
+            m = np.array([(mx, my) for mx, my, _ in self.memory]) - [x, y]
+            cs, sn = math.cos(h), math.sin(h)
+            rel = np.column_stack([cs * m[:, 0] + sn * m[:, 1], -sn * m[:, 0] + cs * m[:, 1]])
+        else:
+            rel = np.empty((0, 2))
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        keep = (dist < min(AVOID_RANGE, goal_dist + 0.3)) & (rel[:, 0] > -0.3)
+        rel, dist = rel[keep], dist[keep]
+        desired = self._desired()
+        headings = np.linspace(-MAX_HEADING, MAX_HEADING, 57)
+        if len(rel):
+            bearings = np.arctan2(rel[:, 1], rel[:, 0])
+            half = np.arcsin(np.clip((BODY_RADIUS + MARGIN) / np.maximum(dist, 1e-3), 0.0, 1.0))
+            blocked = (np.abs(_wrap(headings[:, None] - bearings[None, :])) < half[None, :]).any(axis=1)
+        else:
+            blocked = np.zeros(len(headings), bool)
+        cost = np.abs(_wrap(headings - desired)) + 10.0 * blocked
+        best = int(np.argmin(cost))
+        if blocked[best]:                                 # nothing free in view: turn toward the freer side
+            left = float((rel[:, 1] > 0).sum()) if len(rel) else 0.0
+            side = -1.0 if left > len(rel) - left else 1.0
+            return 0.0, 0.8 * c.max_angular * side
+        heading = float(headings[best])
+        along = rel @ np.array([math.cos(heading), math.sin(heading)]) if len(rel) else np.empty(0)
+        across = rel @ np.array([-math.sin(heading), math.cos(heading)]) if len(rel) else np.empty(0)
+        ahead = along[(along > 0) & (np.abs(across) < BODY_RADIUS + MARGIN)]       # in the body's corridor
+        clear = float(np.min(ahead)) if len(ahead) else AVOID_RANGE
+        if abs(heading) > math.radians(45):
+            return 0.0, c.max_angular * math.copysign(1.0, heading)
+        v = c.max_linear * min(1.0, max(0.25, (clear - 0.4) / 1.2)) * max(0.3, math.cos(heading) ** 2)
+        if goal_dist < 1.0:
+            v = min(v, max(0.2, goal_dist) * c.max_linear)
+        return v, float(np.clip(1.8 * heading, -c.max_angular, c.max_angular))

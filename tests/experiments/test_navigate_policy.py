@@ -1,0 +1,122 @@
+"""The default virtual patient (navigate) and every policy's ability: reaction time, perceptual
+threshold and noise, seeded populations — from phosphene brightness alone; and whole trials in the
+cores (quick_trial): the representation decides whether it walks past the crate."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from raspv_experiments.navigate_policy import Navigate, row_bands
+from raspv_experiments.policies import PhospheneLayout, PolicyConfig, make_policy
+from raspv_experiments.subject_ability import ABILITY, subject_ability
+
+STILL = dict(noise=0.0, perception_noise=0.0, reaction_time_s=0.0)
+
+
+def grid_layout(n: int = 20, size: int = 400, fov_deg: float = 40.0) -> PhospheneLayout:
+    c = (np.arange(n) + 0.5) * size / n
+    x, y = np.meshgrid(c, c)
+    return PhospheneLayout(x.ravel(), y.ravel(), size, size, size / (2 * math.tan(math.radians(fov_deg) / 2)))
+
+
+def floor_frame(layout: PhospheneLayout) -> np.ndarray:
+    """Depth-mode floor: one brightness per image row, brighter toward the bottom (nearer)."""
+    return 0.2 + 0.4 * layout.y / layout.height
+
+
+def test_abilities_are_seeded_spread_and_bounded():
+    a, b = subject_ability(3), subject_ability(3)
+    assert a == b and a != subject_ability(4)
+    assert subject_ability(0) == {k: v[0] for k, v in ABILITY.items()}          # the median subject
+    assert subject_ability(5, spread=0.0) == subject_ability(0)
+    population = [subject_ability(n) for n in range(1, 41)]
+    for name, (median, _, lo, hi) in ABILITY.items():
+        values = [p[name] for p in population]
+        assert lo <= min(values) and max(values) <= hi and len(set(values)) > 30
+        assert np.median(values) == pytest.approx(median, rel=0.25)
+    with pytest.raises(ValueError):
+        subject_ability(-1)
+
+
+def test_reaction_time_threshold_and_noise():
+    layout = grid_layout()
+    p = make_policy("wander_avoid", layout, PolicyConfig(**{**STILL, "reaction_time_s": 0.3}))
+    free = np.zeros(len(layout.x))
+    cmds = [p.act(free, 0.1 * k) for k in range(5)]
+    assert [c.linear for c in cmds[:3]] == [0.0, 0.0, 0.0]                # standing until it reacts
+    assert cmds[3].linear == pytest.approx(p.config.max_linear)          # 0.3 s after the first frame
+    # below the perceptual threshold nothing is seen: a dim obstacle ahead does not turn it
+    q = make_policy("wander_avoid", layout, PolicyConfig(**STILL, min_brightness=0.5))
+    dim = np.zeros(len(layout.x))
+    dim[(layout.y > 200)] = 0.45
+    assert q.act(dim).angular == 0.0
+    noisy = [make_policy("navigate", layout, PolicyConfig(seed=7, perception_noise=0.05, reaction_time_s=0.0),
+                         goal=(5.0, 0.0)).act(floor_frame(layout), 0.0) for _ in range(2)]
+    assert noisy[0] == noisy[1]                                          # seeded
+
+
+def test_rows_of_phosphenes_look_at_one_floor_distance():
+    layout = grid_layout(10)
+    bands = row_bands(layout)
+    assert len(np.unique(bands)) == 10
+    assert all(len(np.unique(layout.y[bands == b])) == 1 for b in np.unique(bands))
+
+
+def test_navigate_walks_to_the_goal_and_around_what_stands_out():
+    layout = grid_layout()
+    p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+    clear = [p.act(floor_frame(layout), 0.1 * k) for k in range(3)]
+    assert clear[-1].linear == pytest.approx(p.config.max_linear) and abs(clear[-1].angular) < 0.05
+    # something nearer than the floor (brighter than its rows) ahead, a little to the left
+    p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+    frame = floor_frame(layout)
+    u = layout.x - layout.width / 2
+    frame[(layout.y > 230) & (layout.y < 330) & (u > -60) & (u < 20)] = 0.95
+    cmds = [p.act(frame, 0.1 * k) for k in range(3)]
+    assert cmds[0].angular == pytest.approx(0.0, abs=0.05)              # one frame is not enough (noise)
+    assert cmds[-1].angular < -0.1                                       # then it steers right, around it
+    # the goal off to the left: it turns toward it
+    q = Navigate(layout, PolicyConfig(**STILL), goal=(2.0, 2.0))
+    assert q.act(floor_frame(layout), 0.0).angular > 0.3
+
+
+def test_a_trail_is_followed_only_with_the_path_overlay():
+    layout = grid_layout()
+    p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+    frame = np.full(len(layout.x), 0.4)
+    on = np.isfinite(p.ground_distance) & (np.abs(p.ground[:, 1] + 0.5) < 0.12)   # a trail 0.5 m to the right
+    frame[on] = 1.0
+    assert p.act(frame, 0.0).angular == pytest.approx(0.0, abs=0.05)      # no overlay: not a trail
+    p.show("grey", ("path",))
+    assert p.act(frame, 0.1).angular < -0.1                              # the trail: toward it
+    lost = p.act(np.full(len(layout.x), 0.4), 0.2)
+    assert lost.angular < 0                                              # out of view: back where it was
+
+
+def test_a_bump_makes_it_step_back_and_turn():
+    layout = grid_layout()
+    p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+    p.act(floor_frame(layout), 0.0)
+    p.touch()
+    back = p.act(floor_frame(layout), 0.1)
+    assert back.linear < 0 and back.angular != 0.0
+    later = [p.act(floor_frame(layout), 0.1 * k) for k in range(2, 14)]
+    assert later[-1].linear > 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode, reaches", [("depth", True), ("grey", False)])
+def test_the_representation_decides_whether_it_gets_past_the_crate(mode, reaches):
+    """The documented example's task (the crate in the straight line to the goal), virtual subject 1:
+    depth shows the crate nearer than the floor; downsampled grey hardly shows it."""
+    from raspv_experiments.quick_trial import quick_trial
+
+    from tests.experiments.conftest import REPO
+
+    r = quick_trial(str(REPO / "experiments" / "worlds" / "hallway.yaml"), (1.0, 2.1, 0.0), (8.6, 1.5, 0.8), 40.0,
+                    {"device": "argus_ii", "mode": mode, "temporal": False, "max_depth": 3.0},
+                    config=PolicyConfig(seed=1, **subject_ability(1)))
+    assert r.success == reaches, (r.time_s, r.collisions)
+    assert (r.collisions == 0) == reaches

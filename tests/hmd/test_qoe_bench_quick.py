@@ -1,0 +1,44 @@
+"""`raspv bench qoe --quick --kill scene` (issue 21): the demo graph with a real chromium page on
+this machine for 20 s prints every figure the README's speed table quotes — client fps and frame
+age, display ticks and the share of frames in the configured mode, stale episodes, CPU per process
+with chromium, bytes to the client against PNG, head-turn onset — and a killed scene node shown.
+The figures themselves depend on the machine's load and are not asserted (timing assertions do
+not belong in tests); what is asserted is that each is measured and makes sense."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow]
+
+CHROMIUM = Path("/usr/bin/chromium")
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium (apt-get install -y chromium)")
+def test_the_quick_qoe_bench_measures_the_page_the_graph_and_a_kill():
+    res = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "bench", "qoe", "--quick", "--kill", "scene"],
+                         capture_output=True, text=True, timeout=600)
+    out = res.stdout + res.stderr
+    assert res.returncode == 0 and "Traceback" not in out, out[-3000:]
+    m = re.search(r"client: ([\d.]+) fps median \(p5 ([\d.]+)\), frame age p50 (\d+) ms, p95 (\d+) ms; "
+                  r"draws the levels stream \((.*?) accumulation\)", out)
+    assert m, out
+    fps, age95 = float(m.group(1)), int(m.group(4))
+    assert 0 < fps <= 80 and 0 <= age95 < 5000, out
+    m = re.search(r"display: (\d+) frames in ([\d.]+) min, (\d+) ticks missed .*?; ([\d.]+) % in the configured mode",
+                  out)
+    assert m and int(m.group(1)) > 0 and 0 <= float(m.group(4)) <= 100, out
+    assert re.search(r"stale episodes: \d+ \([\d.]+ per minute\), of them late from a live node \d+", out), out
+    cpu = re.search(r"CPU \(% of one core\): (.*?), chromium (\d+) \((\d+) processes\)", out)
+    assert cpu, out
+    assert set(dict(re.findall(r"(\w+) (\d+)", cpu.group(1)))) == {"sim", "scene", "spv", "bridge"}, out
+    assert int(cpu.group(2)) > 0, out                                  # the browser's own CPU is counted
+    m = re.search(r"to the client: ([\d.]+) kB per frame, \d+ kB/s; the same frames as PNG images: "
+                  r"([\d.]+) kB per frame", out)
+    assert m and 0 < float(m.group(1)) < float(m.group(2)), out        # levels are smaller than PNG images
+    assert re.search(r"head-turn onset with the browser open .*?p50 [\d.]+ ms, p95 [\d.]+ ms", out), out
+    assert re.search(r"scene killed with SIGKILL: shown \d+ ms later", out), out
