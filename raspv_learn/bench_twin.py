@@ -1,6 +1,9 @@
-"""Twin throughput: batched phosphene images per second on CPU, ours vs dynaphos, same run.
+"""The twin: its agreement with the live renderer, and batched phosphene images per second on
+CPU, ours vs dynaphos, same run.
 
-Part 1 times the twin (:mod:`raspv_learn.twin`) rendering batches of random stimulation —
+Part 0 runs random levels through the live temporal model and renderer and through the twin
+built from the same simulator (:mod:`raspv_learn.fidelity`), for every sprite model, and prints
+the largest per-pixel difference as a fraction of the peak (target ≤ 1e-4). Part 1 times the twin (:mod:`raspv_learn.twin`) rendering batches of random stimulation —
 forward only, and forward + backward (what training costs) — for the default preset at 256²
 (the phosphenes of ``raspv bench spv``'s dynaphos part) and at dynaphos' published setting,
 10,000 phosphenes at 256² (≥ 28.7 frames/s on an A30 GPU, van der Grinten et al. 2024), and
@@ -27,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--threads", type=int, default=1, help="torch threads for both (default 1)")
     parser.add_argument("--quick", action="store_true", help="tiny settings (the test suite runs this)")
     parser.add_argument("--no-peers", action="store_true", help="skip dynaphos")
+    parser.add_argument("--no-fidelity", action="store_true", help="skip the comparison with the live renderer")
     parser.add_argument("--peer-max-gb", type=float, default=PEER_MAX_GB,
                         help=f"skip dynaphos where its N dense maps exceed this (default {PEER_MAX_GB:g} GB)")
 
@@ -46,6 +50,23 @@ def _settings(args) -> list[tuple[str, dict]]:
         return [("default preset, 64x64", {"width": 64, "num_phosphenes": 100})]
     return [("default preset, 256x256", {"width": 256}),
             ("10,000 phosphenes, 256x256 (dynaphos' setting)", {"width": 256, "num_phosphenes": 10000})]
+
+
+def part_fidelity(args) -> bool:
+    from raspv_learn.fidelity import SPRITE_CASES, TOLERANCE, agreement
+
+    cases = SPRITE_CASES[:1] + SPRITE_CASES[-1:] if args.quick else SPRITE_CASES
+    frames = 3 if args.quick else 14
+    print(f"Part 0 - the twin vs the live renderer and temporal model, {frames} frames of random levels each")
+    ok = True
+    for what, device, width, defects in cases:
+        r = agreement(device, width, frames=frames, **defects)
+        ok &= r.max_error <= TOLERANCE
+        print(f"  {what:34s} {device:18s} {r.sim.count:5d} phosphenes {width}px: max |twin - live| "
+              f"{r.max_error:.1e} of the peak; rounded: max {r.max_rounded_diff} grey level(s) on "
+              f"{100 * r.rounded_share:.3f} % of pixels")
+    print(f"  target <= {TOLERANCE:g} of the peak per pixel: {'met' if ok else 'MISSED'}")
+    return ok
 
 
 def part_twin(args) -> dict[str, float]:
@@ -132,6 +153,8 @@ def run(args: argparse.Namespace) -> int:
     for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, str(args.threads))
     torch.set_num_threads(max(1, args.threads))
+    if not args.no_fidelity:
+        part_fidelity(args)
     ours = part_twin(args)
     if not args.no_peers:
         part_dynaphos(args, ours)

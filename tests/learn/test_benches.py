@@ -9,6 +9,7 @@ from raspv_bringup.cli import main as raspv
 def test_bench_twin_quick_prints_frames_per_second_beside_dynaphos(capsys):
     assert raspv(["bench", "twin", "--quick"]) == 0
     out = capsys.readouterr().out
+    assert re.search(r"target <= 0.0001 of the peak per pixel: (met|MISSED)", out)
     assert re.search(r"render forward\s+\d+ frames/s", out) and "temporal recurrence" in out
     assert "dynaphos" in out and (re.search(r"the twin is [\d,]+x faster", out) or "not available" in out)
 

@@ -13,14 +13,29 @@ from raspv_spv.spv_params import PARAMS
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
+SPV = {"device": "argus_iii", "mode": "depth", "width": 200, "rate": 10.0}
 
-def test_learned_mode_selected_at_run_time_in_a_live_graph(graph, probe, tmp_path):
+
+@pytest.fixture
+def node_params():
+    """The spv node's parameters; its temporal table built into the session's cache first (2-3
+    minutes on a loaded machine: not the graph's time budget)."""
+    from raspv_spv.config import config_from_node_params
+    from raspv_spv.simulator import PhospheneSimulator
+
+    params = {p.name: p.default for p in PARAMS}
+    params.update(SPV)
+    PhospheneSimulator(config_from_node_params(params))
+    return params
+
+
+def test_learned_mode_selected_at_run_time_in_a_live_graph(graph, probe, tmp_path, node_params):
     from raspv_msgs.msg import PhospheneFrame
 
     g = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "scene"}, {"kind": "spv"}]},
                "cam": {"ros__parameters": {"rate": 5.0, "width": 320, "height": 240, "walk_speed": 0.3,
                                            "pitch_down_deg": 30.0}},
-               "spv": {"ros__parameters": {"device": "argus_iii", "mode": "depth", "width": 200, "rate": 10.0}}})
+               "spv": {"ros__parameters": dict(SPV)}})
     # three nodes starting on a loaded machine: the first frame can take long
     probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=150, predicate=lambda m: m.mode == "depth")
     [(_, ok, why)] = probe.set_params("spv", {"mode": "learned"})     # the shipped encoder of argus_iii
@@ -37,9 +52,7 @@ def test_learned_mode_selected_at_run_time_in_a_live_graph(graph, probe, tmp_pat
                                                        for f in frames.messages))
     image = next(i for i in images.messages if any(stamp(i) == stamp(f) for f in frames.messages))
     recorded = next(f for f in frames.messages if stamp(f) == stamp(image))
-    params = {p.name: p.default for p in PARAMS}
-    params.update(device="argus_iii", mode="learned", width=200, rate=10.0)
-    twin = PhospheneTwin.from_node_params(params)
+    twin = PhospheneTwin.from_node_params({**node_params, "mode": "learned"})
     with torch.no_grad():
         ours = twin(torch.tensor([list(recorded.brightness)]))[0].numpy() * 255
     assert np.abs(np.rint(ours) - image_to_array(image)).max() <= 1

@@ -1,80 +1,28 @@
 """The differentiable twin against the live renderer and temporal model, and its gradients."""
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 import torch
 
-import raspv_spv.renderer as live_renderer
+from raspv_learn.fidelity import SPRITE_CASES, TOLERANCE, agreement
 from raspv_learn.temporal_twin import TemporalTwin
 from raspv_learn.twin import PhospheneTwin
 from raspv_spv.config import spv_config
 from raspv_spv.simulator import PhospheneSimulator
 from raspv_spv.temporal_lut import TemporalState
 
-TOLERANCE = 1e-4          # of the live image's peak, per pixel (the issue's target)
 
-
-class _Capture:
-    """cv2 as the renderer sees it, keeping the float image handed to the final uint8
-    conversion: the live renderer's exact pre-quantisation output."""
-
-    def __init__(self) -> None:
-        self.image = None
-
-    def __getattr__(self, name):
-        return getattr(cv2, name)
-
-    def convertScaleAbs(self, image):
-        self.image = np.minimum(np.asarray(image, np.float64), 255.0)     # the conversion saturates at 255
-        return cv2.convertScaleAbs(image)
-
-
-@pytest.fixture
-def live_float(monkeypatch):
-    capture = _Capture()
-    monkeypatch.setattr(live_renderer, "cv2", capture)
-    return capture
-
-
-# every sprite model; the widths put tissue models on a coarse grid (scale > 1) with and without
-# a full-resolution part for small phosphenes
-CASES = [
-    ("gaussian", "default", 200, {"dropout": 0.1, "noise_px": 1.0}),
-    ("scoreboard retina, coarse + fine", "bva44", 160, {}),
-    ("scoreboard cortex", "orion", 160, {"dropout": 0.1}),
-    ("scoreboard cortex, coarse + fine", "neuralink", 160, {}),
-    ("axon map, coarse", "argus_ii_axon", 240, {}),
-    ("biphasic axon map (levelled)", "argus_ii_biphasic", 160, {}),
-    ("dynaphos (levelled)", "orion_dynaphos", 160, {"dropout": 0.1}),
-]
-
-
-@pytest.mark.parametrize("what, device, width, defects", CASES, ids=[c[0] for c in CASES])
-def test_twin_matches_the_live_renderer_for_every_sprite_model(live_float, what, device, width, defects):
-    sim = PhospheneSimulator(spv_config(device, width=width, temporal=True, **defects))
-    twin = PhospheneTwin(sim)
+@pytest.mark.parametrize("what, device, width, defects", SPRITE_CASES, ids=[c[0] for c in SPRITE_CASES])
+def test_twin_matches_the_live_renderer_for_every_sprite_model(what, device, width, defects):
+    # 14 frames with the temporal model on: rising, held, fading phosphenes
+    result = agreement(device, width, frames=14, **defects)
+    twin = result.twin
     assert (twin.scale > 1) == ("coarse" in what) and ("fine" in twin._matrices) == ("fine" in what)
     assert twin.levelled == ("levelled" in what)
-    temporal = TemporalTwin.from_config(sim.config)
-    rng = np.random.default_rng(1)
-    state = None
-    for frame in range(14):                       # the temporal model on: rising, held, fading phosphenes
-        levels = rng.integers(0, sim.num_levels, sim.count).astype(np.uint8)
-        levels[rng.random(sim.count) < 0.3] = 0
-        live_image = sim.render(sim.brightness(levels))
-        amp = torch.from_numpy(levels.astype(np.float32) / (sim.num_levels - 1))[None, None]
-        b, pulse, state = temporal(amp, state)
-        b = b[:, 0] * twin.visible
-        with torch.no_grad():
-            ours = twin(b, pulse[:, 0] if twin.levelled else None)[0].numpy() * 255.0
-        peak = max(1.0, float(live_float.image.max()))
-        assert np.abs(ours - live_float.image).max() <= TOLERANCE * peak, (what, frame)
-        # and the live node's uint8 image is the twin's, rounded (±1 only at a rounding boundary)
-        rounded = np.rint(ours)
-        assert np.abs(rounded - live_image).max() <= 1
-        assert np.mean(rounded != live_image) < 1e-3
+    assert result.max_error <= TOLERANCE, what
+    # and the live node's uint8 image is the twin's, rounded (±1 only at a rounding boundary)
+    assert result.max_rounded_diff <= 1 and result.rounded_share < 1e-3
 
 
 def test_twin_from_the_node_parameters_is_the_nodes_configuration():
