@@ -5,6 +5,7 @@ hand-designed modes through the computational observer (docs/learn.md).
     raspv learn train optimist              # → runs/learn/optimist/ (checkpoints, encoder.onnx)
     raspv learn train optimist --resume     # continue a killed run
     raspv learn compare optimist            # observer scores of every mode on the held-out world
+    raspv learn compare optimist --shipped  # the table shipped with the encoder (no training)
 
 CONFIG is a YAML file or the name of a shipped one (``raspv_learn/configs/NAME.yaml``).
 """
@@ -43,6 +44,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             p.add_argument("--encoder", help="weights .pt of the learned encoder (default: --out's, else the "
                                              "shipped one)")
             p.add_argument("--no-learned", action="store_true", help="score the hand-designed modes only")
+            p.add_argument("--shipped", action="store_true",
+                           help="print the comparison shipped in raspv_learn/models/ (no data, no training)")
+            p.add_argument("--ship", action="store_true",
+                           help="copy the finished comparison into raspv_learn/models/<device>.compare.json")
             p.add_argument("--fresh", action="store_true",
                            help="score every row again (default: rows of --out/compare.json with the same "
                                 "configuration, observer and encoder are kept: a killed comparison resumes)")
@@ -127,6 +132,19 @@ def _train(args, config) -> int:
 
 
 def _compare(args, config) -> int:
+    if args.shipped:
+        path = MODELS_DIR / f"{Path(config.device).stem}.compare.json"
+        if not path.exists():
+            print(f"raspv learn: no comparison shipped for {config.device} ({path}); run raspv learn compare "
+                  f"{config.name} --ship", file=sys.stderr)
+            return 2
+        record = json.loads(path.read_text())
+        _report(config, record["phosphenes"], record["rows"])
+        return 0
+    return _compare_run(args, config)
+
+
+def _compare_run(args, config) -> int:
     import hashlib
 
     import numpy as np
@@ -179,17 +197,27 @@ def _compare(args, config) -> int:
         print(f"  {name:22s} obstacle IoU {row['iou_obstacle']:.3f}  floor {row['iou_floor']:.3f}  "
               f"wall {row['iou_wall']:.3f}  mIoU {row['miou']:.3f}  on {100 * row['active_fraction']:.0f} %  "
               f"({row['minutes']:.1f} min)", flush=True)
+    (out / "compare.md").write_text(_report(config, data.count, rows))
+    if args.ship:
+        shipped = MODELS_DIR / f"{Path(config.device).stem}.compare.json"
+        shipped.write_text(json.dumps({"config": config.name, "run_key": run_key, "phosphenes": data.count,
+                                       "test_worlds": list(config.data.test_worlds), "rows": rows}, indent=1))
+        print(f"shipped as {shipped}")
+    return 0 if np.isfinite([r["miou"] for r in rows]).all() else 1
+
+
+def _report(config, count: int, rows: list[dict]) -> str:
+    """Print (and return) the table, and the learned encoder's gain over the best hand-designed mode."""
     hand = [r for r in rows if r["mode"] != "learned"]
     best = max(hand, key=lambda r: r["iou_obstacle"]) if hand else None
-    table = _markdown(config, data.count, rows, best)
-    (out / "compare.md").write_text(table)
-    print(table)
+    table = _markdown(config, count, rows, best)
     learned = next((r for r in rows if r["mode"] == "learned"), None)
     if learned and best:
         gain = 100 * (learned["iou_obstacle"] - best["iou_obstacle"])
-        print(f"learned vs best hand-designed ({best['mode']}): {gain:+.1f} points obstacle IoU "
-              f"(target +10: {'met' if gain >= 10 else 'MISSED'})")
-    return 0 if np.isfinite([r["miou"] for r in rows]).all() else 1
+        table += (f"\nlearned vs best hand-designed ({best['mode']}): {gain:+.1f} points obstacle IoU "
+                  f"(target +10: {'met' if gain >= 10 else 'MISSED'})\n")
+    print(table)
+    return table
 
 
 def _markdown(config, count: int, rows: list[dict], best: dict | None) -> str:

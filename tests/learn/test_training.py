@@ -3,6 +3,7 @@ on a tiny dataset rendered from two shipped worlds."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -102,6 +103,15 @@ def test_train_and_compare_commands(tiny, tmp_path, capsys):
     assert "| learned |" in table and "obstacle IoU" in table
     printed = capsys.readouterr().out
     assert "points obstacle IoU" in printed
+
+
+def test_the_shipped_comparisons_print_without_data(capsys):
+    for name in ("argus_iii", "optimist"):
+        assert raspv(["learn", "compare", name, "--shipped"]) == 0
+        printed = capsys.readouterr().out
+        assert "| learned |" in printed and "(best hand-designed)" in printed
+        assert re.search(r"learned vs best hand-designed \(\w+\): [+-][\d.]+ points obstacle IoU "
+                         r"\(target \+10: (met|MISSED)\)", printed)
 
 
 @pytest.mark.parametrize("change, message", [
