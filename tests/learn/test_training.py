@@ -106,7 +106,7 @@ def test_train_and_compare_commands(tiny, tmp_path, capsys):
 
 
 def test_the_shipped_comparisons_print_without_data(capsys):
-    for name in ("argus_iii", "optimist"):
+    for name in ("argus_iii",):             # optimist's comparison is not shipped yet (docs/learn.md)
         assert raspv(["learn", "compare", name, "--shipped"]) == 0
         printed = capsys.readouterr().out
         assert "| learned |" in printed and "(best hand-designed)" in printed
