@@ -22,6 +22,8 @@ BENCHES: dict[str, str] = {
     "budget": "raspv_spv.budget_bench",
     "soak": "raspv_bringup.soak_bench",
     "foxglove": "raspv_viz.bench",
+    "twin": "raspv_learn.bench_twin",
+    "learned": "raspv_learn.bench_learned",
 }
 
 

@@ -27,6 +27,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bag": ("raspv_bringup.bag_cli", "record, play, inspect and repair bags; build one from RGB-D image files"),
     "experiment": ("raspv_experiments.experiment_cli", "experiments: protocols, sessions with subjects, sweeps, reports"),
     "render": ("raspv_bringup.render_cli", "render a bag into a phosphene video (mp4) and/or PNG frames, offline"),
+    "learn": ("raspv_learn.learn_cli", "learned encoders: render the dataset, train through the differentiable twin, "
+                                       "compare with the hand-designed modes"),
     "camera": ("raspv_camera.camera_cli", "real RGB-D cameras: list connected devices, show modes, import recordings"),
 }
 

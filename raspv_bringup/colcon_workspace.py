@@ -50,7 +50,7 @@ PIP_NAMES = {"rosbags": "rosbags", "foxglove": "foxglove-sdk", "lz4": "rosbags",
 # Imported only when a user asks for them (camera SDKs, torch models, Ray sweeps, image metrics):
 # optional extras of pyproject.toml, not package dependencies.
 OPTIONAL = {"pyrealsense2", "openni", "depthai", "libusb_package", "torch", "ray", "skimage",
-            "pulse2percept", "dynaphos", "ai_edge_litert", "onnx", "playwright"}
+            "pulse2percept", "dynaphos", "ai_edge_litert", "onnx", "playwright", "tqdm"}
 ROS_PACKAGES = {"rclpy", "ament_index_python", "launch", "launch_ros"}
 # Extra files a package installs: (directory inside the repository, glob patterns). Installed
 # as site-packages/<dir>/… because the code looks for them beside its package folder.
@@ -71,6 +71,7 @@ DESCRIPTIONS = {
     "raspv_common": "RASPV-py shared pieces: camera model, conversions, node base, parameter schemas, occupancy grids",
     "raspv_experiments": "RASPV-py experiments: protocols, sessions with subjects, scripted subjects, sweeps, reports",
     "raspv_hmd": "RASPV-py headset bridge: phosphene frames to browser and native clients, head pose and teleop back",
+    "raspv_learn": "RASPV-py learned encoders: a differentiable twin of the phosphene simulator, training, ONNX export",
     "raspv_nav": "RASPV-py navigation assistant: costmaps from depth, A* global planner, DWA, guidance",
     "raspv_perception": "RASPV-py scene perception: floor, planes, obstacles, free floor, stairs, segmentation, odometry",
     "raspv_sim": "RASPV-py virtual world on PyBullet: world files, the BlindBot avatar, people, RGB-D camera",

@@ -172,6 +172,8 @@ FILE_KINDS: dict[str, FileKind] = {
     "layout": FileKind("layout", _check_layout, "implant electrode layout: name or YAML file"),
     "segmentation_model": FileKind("segmentation_model", _check_segmentation_model,
                                    "segmentation model (ONNX or TorchScript) with its YAML", with_params=True),
+    "learned_model": FileKind("learned_model", "raspv_spv.modes.learned:check_model",
+                              "learned encoder (ONNX with RASPV metadata, from raspv learn)"),
     "camera_recording": FileKind("camera_recording", "raspv_camera.drivers:check_recording",
                                  "RGB-D camera SDK recording", with_params=True),
 }

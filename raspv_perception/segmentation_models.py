@@ -64,7 +64,9 @@ def _labels_dtype(count: int) -> type:
     return np.uint8 if count <= 256 else np.uint16
 
 
-def _onnx_session(path: Path, threads: int):
+def onnx_session(path: Path, threads: int):
+    """An onnxruntime CPU session of ``path`` on ``threads`` threads (sequential), or ModelError in one
+    line (also the learned mode's, raspv_spv/modes/learned.py)."""
     import onnxruntime as ort
 
     options = ort.SessionOptions()
@@ -92,7 +94,7 @@ class PersonModel(SegmentationModel):
         if not self.path.is_file():
             raise ModelError(f"{self.path}: no such model file (the person model ships with raspv_perception; "
                              "reinstall with `make install`)")
-        self.session = _onnx_session(self.path, threads)
+        self.session = onnx_session(self.path, threads)
         inp = self.session.get_inputs()[0]
         if list(inp.shape) != [1, self.INPUT, self.INPUT, 3]:
             raise ModelError(f"{self.path}: input shape {inp.shape}; expected [1, 256, 256, 3] (selfie segmentation)")
@@ -183,7 +185,7 @@ class OnnxModel(_SpecModel):
 
     def __init__(self, spec: ModelSpec, threads: int = 1) -> None:
         super().__init__(spec)
-        self.session = _onnx_session(spec.model, threads)
+        self.session = onnx_session(spec.model, threads)
         inputs = self.session.get_inputs()
         if len(inputs) != 1:
             raise ModelError(f"{spec.model}: the model has {len(inputs)} inputs; expected one image input")

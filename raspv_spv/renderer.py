@@ -120,6 +120,11 @@ class Renderer:
         """(H, W) uint8 image for ``brightness`` (N,) in [0, 1] (values above 1 saturate).
         Levelled banks also need each phosphene's sprite level ``levels`` (N,) in 1 … L (0:
         nothing drawn); its brightness then scales that level's sprite."""
+        return cv2.convertScaleAbs(self.render_float(brightness, levels))
+
+    def render_float(self, brightness: np.ndarray, levels: np.ndarray | None = None) -> np.ndarray:
+        """(H, W) float32 image before the saturating conversion to uint8 (grey levels, ≥ 0,
+        unclipped): what :meth:`render_mono` rounds; the differentiable twin is checked on it."""
         b = np.asarray(brightness, dtype=np.float32)
         if b.shape != (self.count,):
             raise ValueError(f"expected brightness for {self.count} phosphenes, got shape {b.shape}")
@@ -143,7 +148,7 @@ class Renderer:
             image = image[:self.height, :self.width]
         if fine is not None:
             image = image + fine.reshape(self.height, self.width)
-        return cv2.convertScaleAbs(image)
+        return image
 
     def render(self, brightness: np.ndarray, levels: np.ndarray | None = None) -> np.ndarray:
         """The image in this renderer's output format: mono8 (H, W) or green rgb8 (H, W, 3)."""

@@ -194,12 +194,20 @@ class PhospheneSimulator:
         """The phosphene image of ``brightness`` (mono8 (H, W) or green rgb8 (H, W, 3)); a
         levelled sprite model draws each phosphene with the sprite of its latest pulse's level,
         scaled by the perceived fraction of it."""
+        return self.renderer.render(*self._sprite_gains(brightness))
+
+    def render_float(self, brightness: np.ndarray) -> np.ndarray:
+        """The mono image of ``brightness`` as float32 grey levels before the conversion to uint8
+        (what :meth:`render` rounds and saturates at 255)."""
+        return self.renderer.render_float(*self._sprite_gains(brightness))
+
+    def _sprite_gains(self, brightness: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         if self.renderer.levels > 1:
             with np.errstate(divide="ignore", invalid="ignore"):
                 gain = np.where(self._pulse_levels > 0,
                                 brightness / (self._pulse_levels * self._level_scale), 0.0).astype(np.float32)
-            return self.renderer.render(gain, self._pulse_levels)
-        return self.renderer.render(brightness)
+            return gain, self._pulse_levels
+        return brightness, None
 
     def step(self, inputs: FrameInputs, frames: int = 1) -> SpvFrame:
         """Levels, brightness and image of one frame."""

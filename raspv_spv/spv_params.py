@@ -64,6 +64,8 @@ PARAMS = [
     Param("max_depth", 3.0, "depth mapped to level 0 (depth, edges_depth modes)", minimum=0.1, maximum=20.0, unit="m"),
     Param("edge_low", 50.0, "Canny lower threshold (edges modes)", minimum=1.0, maximum=1000.0),
     Param("edge_high", 150.0, "Canny upper threshold (edges modes)", minimum=1.0, maximum=1000.0),
+    Param("learned_model", "", "ONNX encoder of the learned mode, from raspv learn ('': the shipped one for the "
+          "device, else optimist's)", file_kind="learned_model"),
     Param("chess_tile", 0.5, "checkerboard tile size (chess modes)", minimum=0.05, maximum=5.0, unit="m"),
     Param("highlight.classes", ["person"], "classes the highlight overlay lights (names or synonyms of the "
           "segmentation's classes)"),

@@ -3,6 +3,8 @@
 - ``ros_domain``: this session's private ROS_DOMAIN_ID (claimed before anything imports rclpy).
 - ``probe``: an rclpy node spinning in the test process (wait_for_message, collect, publish,
   set_params).
+- ``private_cache``: a per-session RASPV_CACHE_DIR (temporal tables, sprite banks; not ~/.cache),
+  for the folders whose tests build them (their conftest makes it autouse).
 - ``graph``: start a graph (dict or YAML path) with ``raspv launch`` in a subprocess; stopped with
   SIGINT at the end of the test, failing it if any process is left behind.
 """
@@ -26,6 +28,16 @@ def ros_domain() -> int:
 @pytest.fixture(scope="session")
 def data_dir() -> Path:
     return DATA_DIR
+
+
+@pytest.fixture(scope="session")
+def private_cache(tmp_path_factory):
+    """A per-session cache directory for temporal tables and sprite banks (built once per session)."""
+    path = tmp_path_factory.mktemp("raspv-cache")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("RASPV_CACHE_DIR", str(path))
+    yield path
+    mp.undo()
 
 
 @pytest.fixture(scope="session")

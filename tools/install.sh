@@ -55,7 +55,8 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
   say "installing ROS 2 Jazzy wheels and Python dependencies (a few minutes the first time)"
   # pip prints a warning per package for index folders this machine's pip.conf names but lacks.
   "$VPY" -m pip install --disable-pip-version-check -q \
-      -r "$ROOT/requirements/ros.txt" -r "$ROOT/requirements/python.txt" -r "$ROOT/requirements/dev.txt" \
+      -r "$ROOT/requirements/ros.txt" -r "$ROOT/requirements/python.txt" -r "$ROOT/requirements/learn.txt" \
+      -r "$ROOT/requirements/dev.txt" \
       -c "$ROOT/requirements/constraints.txt" 2>&1 | grep -v -E "is ignored: it is neither a file nor a directory" || true
   "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' 2>/dev/null ||
     die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt"

@@ -18,6 +18,7 @@ MODES: dict[str, str] = {
     "wall_obstacles": "raspv_spv.modes.wall_obstacles:WallObstaclesMode",
     "chess_wall_obstacles": "raspv_spv.modes.chess_wall_obstacles:ChessWallObstaclesMode",
     "depth_no_floor": "raspv_spv.modes.depth_no_floor:DepthNoFloorMode",
+    "learned": "raspv_spv.modes.learned:LearnedMode",
 }
 
 OVERLAYS: dict[str, str] = {

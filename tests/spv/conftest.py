@@ -19,13 +19,9 @@ NODE_START_CONFIGS = [
 
 
 @pytest.fixture(autouse=True, scope="session")
-def lut_cache(tmp_path_factory):
-    """Temporal tables go to a per-session directory (built once per session, not in ~)."""
-    path = tmp_path_factory.mktemp("raspv-cache")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("RASPV_CACHE_DIR", str(path))
-    yield path
-    mp.undo()
+def lut_cache(private_cache):
+    """Temporal tables go to the session's private cache (built once per session, not in ~)."""
+    return private_cache
 
 
 @pytest.fixture(scope="module")

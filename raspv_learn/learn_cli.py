@@ -1,0 +1,231 @@
+"""``raspv learn``: render the dataset, train an encoder end to end, compare it with the
+hand-designed modes through the computational observer (docs/learn.md).
+
+    raspv learn dataset optimist            # the data recipe of raspv_learn/configs/optimist.yaml
+    raspv learn train optimist              # → runs/learn/optimist/ (checkpoints, encoder.onnx)
+    raspv learn train optimist --resume     # continue a killed run
+    raspv learn compare optimist            # observer scores of every mode on the held-out world
+    raspv learn compare optimist --shipped  # the table shipped with the encoder (no training)
+
+CONFIG is a YAML file or the name of a shipped one (``raspv_learn/configs/NAME.yaml``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+COMPARE_MODES = ("depth", "edges", "chess_floor", "wall_obstacles", "chess_wall_obstacles")
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="learn", metavar="COMMAND", required=True)
+    for name, text in (("dataset", "render the dataset of a configuration's data recipe from the shipped worlds"),
+                       ("train", "train the encoder end to end through the twin; export it to ONNX"),
+                       ("compare", "the computational observer: every hand-designed mode and the learned encoder "
+                                   "scored on the held-out worlds")):
+        p = sub.add_parser(name, help=text, description=text)
+        p.add_argument("config", help="training configuration: YAML file or shipped name (optimist, argus_iii)")
+        p.add_argument("--data", help="dataset folder (default data/learn/<recipe key>)")
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        if name in ("train", "compare"):
+            p.add_argument("--out", help="run folder (default runs/learn/<name>)")
+        if name == "train":
+            p.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
+            p.add_argument("--ship", action="store_true",
+                           help="copy the encoder, weights and scores into raspv_learn/models/ (what the learned "
+                                "mode loads by default)")
+        if name == "compare":
+            p.add_argument("--modes", nargs="+", default=list(COMPARE_MODES), help="hand-designed modes to score")
+            p.add_argument("--encoder", help="weights .pt of the learned encoder (default: --out's, else the "
+                                             "shipped one)")
+            p.add_argument("--no-learned", action="store_true", help="score the hand-designed modes only")
+            p.add_argument("--shipped", action="store_true",
+                           help="print the comparison shipped in raspv_learn/models/ (no data, no training)")
+            p.add_argument("--ship", action="store_true",
+                           help="copy the finished comparison into raspv_learn/models/<device>.compare.json")
+            p.add_argument("--fresh", action="store_true",
+                           help="score every row again (default: rows of --out/compare.json with the same "
+                                "configuration, observer and encoder are kept: a killed comparison resumes)")
+
+
+def _data_dir(args, config) -> Path:
+    return Path(args.data) if args.data else Path("data") / "learn" / config.data.key()
+
+
+def _out_dir(args, config) -> Path:
+    return Path(args.out) if args.out else Path("runs") / "learn" / config.name
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_learn.config import ConfigError, load_config
+    from raspv_learn.dataset import DataError
+
+    try:
+        config = load_config(args.config)
+        return {"dataset": _dataset, "train": _train, "compare": _compare}[args.learn](args, config)
+    except (ConfigError, DataError) as exc:
+        print(f"raspv learn: {exc}", file=sys.stderr)
+        return 2
+
+
+def _dataset(args, config) -> int:
+    from raspv_learn.dataset import render_dataset
+
+    t0 = time.perf_counter()
+    folder = render_dataset(config.data, _data_dir(args, config), progress=not args.quiet)
+    print(f"dataset {folder}: {sum(config.data.frames_of(w) for w in (*config.data.train_worlds, *config.data.test_worlds))}"
+          f" frames (train {', '.join(config.data.train_worlds)}; held out {', '.join(config.data.test_worlds)}), "
+          f"{time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def _twin(config):
+    from raspv_learn.twin import PhospheneTwin
+
+    return PhospheneTwin.from_config(config.spv_config())
+
+
+def _train(args, config) -> int:
+    import torch
+
+    from raspv_learn.export import export_encoder
+    from raspv_learn.prepare import prepare
+    from raspv_learn.train import TrainError, train_end_to_end
+
+    out = _out_dir(args, config)
+    t0 = time.perf_counter()
+    data = prepare(config, _data_dir(args, config), progress=not args.quiet)
+    prep_s = time.perf_counter() - t0
+    twin = _twin(config)
+    try:
+        model, result = train_end_to_end(config, data, twin, out, resume=args.resume, progress=not args.quiet)
+    except TrainError as exc:
+        print(f"raspv learn: {exc}", file=sys.stderr)
+        return 2
+    torch.save({"encoder": model.encoder.state_dict(), "decoder": model.decoder.state_dict(),
+                "config": config.as_dict(), "config_key": config.key()}, out / "weights.pt")
+    diff = export_encoder(model.encoder, config, twin.num_levels, out / "encoder.onnx", data.test.inputs[0])
+    summary = {"config": config.name, "config_key": config.key(), "recipe_key": config.data.key(),
+               "phosphenes": data.count, "best_epoch": result.best_epoch, "val": result.val, "test": result.test,
+               "train_minutes": result.seconds / 60.0, "train_cpu_minutes": result.cpu_seconds / 60.0,
+               "prepare_minutes": prep_s / 60.0, "onnx_max_diff": diff,
+               "threads": config.train.threads}
+    (out / "result.json").write_text(json.dumps(summary, indent=1))
+    print(f"{config.name}: {data.count} phosphenes, best epoch {result.best_epoch}/{config.train.epochs}; "
+          f"held-out ({', '.join(config.data.test_worlds)}) obstacle IoU {result.test['iou_obstacle']:.3f}, "
+          f"mIoU {result.test['miou']:.3f}; training {result.seconds / 60:.1f} min wall, "
+          f"{result.cpu_seconds / 60:.1f} min CPU on {config.train.threads} thread(s) "
+          f"(+ {prep_s / 60:.1f} min preparing the data); {out / 'encoder.onnx'}")
+    if args.ship:
+        MODELS_DIR.mkdir(exist_ok=True)
+        stem = Path(config.device).stem
+        shutil.copyfile(out / "encoder.onnx", MODELS_DIR / f"{stem}.onnx")
+        shutil.copyfile(out / "weights.pt", MODELS_DIR / f"{stem}.pt")
+        (MODELS_DIR / f"{stem}.json").write_text(json.dumps(summary, indent=1))
+        print(f"shipped as {MODELS_DIR / stem}.onnx/.pt/.json")
+    return 0
+
+
+def _compare(args, config) -> int:
+    if args.shipped:
+        path = MODELS_DIR / f"{Path(config.device).stem}.compare.json"
+        if not path.exists():
+            print(f"raspv learn: no comparison shipped for {config.device} ({path}); run raspv learn compare "
+                  f"{config.name} --ship", file=sys.stderr)
+            return 2
+        record = json.loads(path.read_text())
+        _report(config, record["phosphenes"], record["rows"])
+        return 0
+    return _compare_run(args, config)
+
+
+def _compare_run(args, config) -> int:
+    import hashlib
+
+    import numpy as np
+    import torch
+
+    from raspv_learn.metrics import stimulation_cost
+    from raspv_learn.prepare import prepare
+    from raspv_learn.train import Pipeline, encoder_levels, train_observer
+
+    out = _out_dir(args, config)
+    out.mkdir(parents=True, exist_ok=True)
+    data = prepare(config, _data_dir(args, config), tuple(args.modes), progress=not args.quiet)
+    twin = _twin(config)
+    weights = Path(args.encoder) if args.encoder else out / "weights.pt"
+    if not weights.exists() and not args.encoder:
+        weights = MODELS_DIR / f"{Path(config.device).stem}.pt"
+    candidates = {m: {p: getattr(data, p).levels[m] for p in ("train", "val", "test")} for m in args.modes}
+    keys = {m: m for m in args.modes}
+    if args.no_learned:
+        pass
+    elif weights.exists():
+        state = torch.load(weights, weights_only=False)
+        model = Pipeline(config, twin, data.grid, data.inside)
+        model.encoder.load_state_dict(state["encoder"])
+        candidates["learned"] = {p: encoder_levels(model, getattr(data, p)) for p in ("train", "val", "test")}
+        keys["learned"] = "learned:" + hashlib.sha256(weights.read_bytes()).hexdigest()[:16]
+    else:
+        print(f"no learned encoder at {weights}: scoring the hand-designed modes only", file=sys.stderr)
+    run_key = f"{config.key()}/{json.dumps(config.as_dict()['observer'], sort_keys=True)}"
+    record = out / "compare.json"
+    kept = {}
+    if record.exists() and not args.fresh:
+        previous = json.loads(record.read_text())
+        kept = {r["row_key"]: r for r in previous.get("rows", []) if previous.get("run_key") == run_key}
+    d = config.spv_config().device
+    rows = []
+    for name, levels in candidates.items():
+        row = kept.get(keys[name])
+        if row is None:
+            r = train_observer(levels, data, twin, config.target.stride_px, config.decoder.features, config.observer,
+                               config.train.seed, config.train.threads, name, progress=not args.quiet)
+            cost = stimulation_cost(levels["test"], data.inside, d.num_levels, d.pulse_amplitude_ua,
+                                    d.pulse_phase_ms)
+            row = {"mode": name, "row_key": keys[name], **r.test, **cost, "best_epoch": r.best_epoch,
+                   "minutes": r.seconds / 60.0, "cpu_minutes": r.cpu_seconds / 60.0}
+        rows.append(row)
+        merged = {**kept, **{x["row_key"]: x for x in rows}}
+        record.write_text(json.dumps({"config": config.name, "run_key": run_key, "phosphenes": data.count,
+                                      "rows": list(merged.values())}, indent=1))
+        print(f"  {name:22s} obstacle IoU {row['iou_obstacle']:.3f}  floor {row['iou_floor']:.3f}  "
+              f"wall {row['iou_wall']:.3f}  mIoU {row['miou']:.3f}  on {100 * row['active_fraction']:.0f} %  "
+              f"({row['minutes']:.1f} min)", flush=True)
+    (out / "compare.md").write_text(_report(config, data.count, rows))
+    if args.ship:
+        shipped = MODELS_DIR / f"{Path(config.device).stem}.compare.json"
+        shipped.write_text(json.dumps({"config": config.name, "run_key": run_key, "phosphenes": data.count,
+                                       "test_worlds": list(config.data.test_worlds), "rows": rows}, indent=1))
+        print(f"shipped as {shipped}")
+    return 0 if np.isfinite([r["miou"] for r in rows]).all() else 1
+
+
+def _report(config, count: int, rows: list[dict]) -> str:
+    """Print (and return) the table, and the learned encoder's gain over the best hand-designed mode."""
+    hand = [r for r in rows if r["mode"] != "learned"]
+    best = max(hand, key=lambda r: r["iou_obstacle"]) if hand else None
+    table = _markdown(config, count, rows, best)
+    learned = next((r for r in rows if r["mode"] == "learned"), None)
+    if learned and best:
+        gain = 100 * (learned["iou_obstacle"] - best["iou_obstacle"])
+        table += (f"\nlearned vs best hand-designed ({best['mode']}): {gain:+.1f} points obstacle IoU "
+                  f"(target +10: {'met' if gain >= 10 else 'MISSED'})\n")
+    print(table)
+    return table
+
+
+def _markdown(config, count: int, rows: list[dict], best: dict | None) -> str:
+    lines = [f"{config.device}, {count} phosphenes, held out: {', '.join(config.data.test_worlds)}", "",
+             "| representation | obstacle IoU | floor IoU | wall IoU | mIoU | phosphenes on | charge/frame |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        mark = " (best hand-designed)" if best is not None and r is best else ""
+        lines.append(f"| {r['mode']}{mark} | {r['iou_obstacle']:.3f} | {r['iou_floor']:.3f} | {r['iou_wall']:.3f} | "
+                     f"{r['miou']:.3f} | {100 * r['active_fraction']:.0f} % | {r['charge_nc']:.0f} nC |")
+    return "\n".join(lines) + "\n"
