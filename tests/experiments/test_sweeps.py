@@ -9,6 +9,7 @@ from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.report import build_report
 from raspv_experiments.session import read_jsonl
 from raspv_experiments.sweep import load_sweep, run_sweep
+from raspv_bringup.testing import dev_requirement
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -48,7 +49,7 @@ def test_sweep_on_worker_processes(tmp_path):
 
 
 def test_the_same_sweep_on_a_local_ray_instance(tmp_path):
-    ray = pytest.importorskip("ray", reason="Ray is not installed (pip install -e '.[cluster]')")
+    ray = dev_requirement("ray")
     sweep = short_sweep(tmp_path, subjects=1)
     out = tmp_path / "out"
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
