@@ -23,6 +23,10 @@ from pathlib import Path
 GROWTH_TARGET_MB_H = 1.0
 
 
+# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+QUICK = {"minutes": 0.25, "interval": 2.0, "warmup": 4.0}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--minutes", type=float, default=5.0, help="how long to run (default 5)")
     parser.add_argument("--graph", default="demo", help="graph file or name in config/ (default demo)")

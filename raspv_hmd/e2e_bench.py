@@ -35,6 +35,10 @@ ONSET_TARGET_MS = 25.0
 HALF_TARGET_MS = 45.0
 
 
+# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+QUICK = {"steps": 3, "hold": 1.0, "temporal": "off", "repeat": 1}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--graph", default="demo", help="graph file or config name (default demo)")
     parser.add_argument("--steps", type=int, default=20, help="head-yaw steps per configuration (default 20)")
