@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from raspv_bringup.bench import BENCHES
+from raspv_bench.bench_cli import BENCHES
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

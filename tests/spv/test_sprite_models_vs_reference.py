@@ -175,7 +175,7 @@ def test_dynaphos_sizes_and_positions_match_dynaphos():
     from dynaphos.simulator import GaussianSimulator
     from dynaphos.utils import Map
 
-    from raspv_spv.bench import DYNAPHOS_PARAMS
+    from raspv_bench.spv import DYNAPHOS_PARAMS
 
     m = our_map("orion", 20000, -5000, cortical_map="dynaphos")
     # positions: dynaphos' own cortex -> visual field mapping of the same (right-hemisphere) electrodes

@@ -11,20 +11,20 @@ import argparse
 import importlib
 
 BENCHES: dict[str, str] = {
-    "sim": "raspv_sim.bench",
-    "scene": "raspv_perception.bench",
-    "spv": "raspv_spv.bench",
-    "bag": "raspv_bags.bench",
-    "camera": "raspv_camera.bench",
-    "hmd": "raspv_hmd.bench",
-    "e2e": "raspv_hmd.e2e_bench",
-    "qoe": "raspv_hmd.qoe_bench",
-    "seg": "raspv_perception.segmentation_bench",
-    "nav": "raspv_nav.bench",
-    "restart": "raspv_bringup.restart_bench",
-    "budget": "raspv_spv.budget_bench",
-    "soak": "raspv_bringup.soak_bench",
-    "foxglove": "raspv_viz.bench",
+    "sim": "raspv_bench.sim",
+    "scene": "raspv_bench.scene",
+    "spv": "raspv_bench.spv",
+    "bag": "raspv_bench.bag",
+    "camera": "raspv_bench.camera",
+    "hmd": "raspv_bench.hmd",
+    "e2e": "raspv_bench.e2e",
+    "qoe": "raspv_bench.qoe",
+    "seg": "raspv_bench.segmentation",
+    "nav": "raspv_bench.nav",
+    "restart": "raspv_bench.restart",
+    "budget": "raspv_bench.budget",
+    "soak": "raspv_bench.soak",
+    "foxglove": "raspv_bench.foxglove",
 }
 
 

@@ -33,7 +33,7 @@ E2E_TARGET_MS = 40.0
 BASELINE_M = (0.025, 0.0, 0.0)
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"frames": 30, "seconds": 3.0, "no_peer": True}
 
 

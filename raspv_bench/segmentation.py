@@ -26,7 +26,7 @@ DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rgbd"
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "people.yaml"
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"repeat": 2, "seconds": 5.0}
 
 

@@ -19,7 +19,7 @@ TARGET_MS = 40.0
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rgbd"
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"frames": 6, "repeat": 1}
 
 

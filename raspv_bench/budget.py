@@ -25,7 +25,7 @@ CASES = [
 ]
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"frames": 5}
 
 

@@ -27,7 +27,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"repeats": 1, "seconds": 5.0}
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 STAGES = ("interpreter ready", "imports done", "rclpy initialised", "node built")
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"repeat": 1, "nodes": "spv"}
 
 

@@ -8,7 +8,7 @@ image step with pulse2percept 0.11 ``ScoreboardModel``: the Alpha-IMS implant's 
 field at the same resolution), our percept checked against theirs in the same run (correlation
 printed). Part 3 compares with dynaphos' ``GaussianSimulator`` (CPU torch), given the very same
 phosphene positions. Parts 4 and 5 time the literature sprite
-models (axon map against pulse2percept's ``AxonMapModel``; :mod:`raspv_spv.bench_sprite_models`).
+models (axon map against pulse2percept's ``AxonMapModel``; :mod:`raspv_bench.spv_sprite_models`).
 All on one thread (``OMP_NUM_THREADS=1``, ``torch.set_num_threads(1)``, ``cv2.setNumThreads(1)``).
 """
 from __future__ import annotations
@@ -58,9 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-peers", action="store_true", help="skip parts 2 and 3")
     parser.add_argument("--quick", action="store_true",
                         help="a smoke run in seconds (the test suite's): 30 frames, small outputs, one peer frame")
-    from raspv_spv import bench_sprite_models
+    from raspv_bench import spv_sprite_models
 
-    bench_sprite_models.add_arguments(parser)
+    spv_sprite_models.add_arguments(parser)
 
 
 def _ms(samples: list[float]) -> tuple[float, float]:
@@ -274,12 +274,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_peers:
         part_pulse2percept(args)
         part_dynaphos(args)
-    from raspv_spv import bench_sprite_models
+    from raspv_bench import spv_sprite_models
 
     if not args.no_axon:
-        bench_sprite_models.part_axon_map(args, _ms, _test_frames)
+        spv_sprite_models.part_axon_map(args, _ms, _test_frames)
     if args.sprite_presets:
-        bench_sprite_models.part_presets(args, _ms, _test_frames)
+        spv_sprite_models.part_presets(args, _ms, _test_frames)
     return 0
 
 

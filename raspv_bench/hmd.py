@@ -27,7 +27,7 @@ FRAME_TARGET_MS = 10.0
 HEAD_TARGET_MS = 20.0
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"size": "200x200", "seconds": 1.0}
 
 

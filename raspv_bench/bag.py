@@ -27,7 +27,7 @@ import numpy as np
 TUM = Path(__file__).resolve().parent.parent / "tests" / "data" / "rgbd"
 
 
-# --quick (raspv_bringup.bench): a smoke run in seconds, run by tests/bench
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
 QUICK = {"seconds": 2.0, "no_extra": True}
 
 
