@@ -8,8 +8,8 @@ import pytest
 
 from raspv_spv.config import spv_config
 from raspv_spv.device import DeviceError, load_device, preset_names
-from raspv_spv.implant_layout import (LayoutError, LayoutSpec, PlacedImplant, layout_names, load_layout,
 from raspv_bringup.testing import dev_requirement
+from raspv_spv.implant_layout import (LayoutError, LayoutSpec, PlacedImplant, layout_names, load_layout,
                                       neuralink_layout)
 from raspv_spv.simulator import check_config
 

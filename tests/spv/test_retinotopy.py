@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from raspv_spv.retinotopy import (DYNAPHOS, POLIMENI2006, WedgeDipoleMap, image_to_visual_field, visual_field_to_image,
 from raspv_bringup.testing import dev_requirement
+from raspv_spv.retinotopy import (DYNAPHOS, POLIMENI2006, WedgeDipoleMap, image_to_visual_field, visual_field_to_image,
                                   watson_dva_to_ret, watson_ret_to_dva, watson_ret_to_dva_exact, watson_um_per_deg)
 
 RNG = np.random.default_rng(0)
