@@ -10,7 +10,7 @@ NODES = [
     {'package': 'raspv_camera', 'executable': 'camera', 'name': 'camera', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'driver': 'auto', 'fps': 30.0, 'height': 480, 'width': 640}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'mounting': 'head'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_perception', 'executable': 'odometry', 'name': 'odometry', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'device': 'optimist', 'mode': 'chess_floor'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'camera_source': 'head', 'device': 'optimist', 'mode': 'chess_floor'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
 ]
 

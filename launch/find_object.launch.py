@@ -9,7 +9,7 @@ from raspv_bringup.ros2_launch import launch_description
 NODES = [
     {'package': 'raspv_sim', 'executable': 'sim', 'name': 'sim', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'log_dir': 'runs', 'world': 'office'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_perception', 'executable': 'segmentation', 'name': 'segmentation', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'backend': 'sim'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'device': 'optimist', 'highlight.classes': ['laptop'], 'highlight.pick': 'nearest', 'mode': 'grey', 'overlays': ['highlight']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'camera_source': 'sim', 'device': 'optimist', 'highlight.classes': ['laptop'], 'highlight.pick': 'nearest', 'mode': 'grey', 'overlays': ['highlight']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
 ]
 

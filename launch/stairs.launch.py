@@ -10,7 +10,7 @@ NODES = [
     {'package': 'raspv_sim', 'executable': 'sim', 'name': 'sim', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'log_dir': 'runs', 'margin_deg': 10.0, 'world': 'stairs'}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_perception', 'executable': 'scene', 'name': 'scene', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_perception', 'executable': 'stairs', 'name': 'stairs', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
-    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'device': 'optimist', 'mode': 'chess_floor', 'overlays': ['stairs']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
+    {'package': 'raspv_spv', 'executable': 'spv', 'name': 'spv', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{'camera_source': 'sim', 'device': 'optimist', 'mode': 'chess_floor', 'overlays': ['stairs']}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
     {'package': 'raspv_hmd', 'executable': 'bridge', 'name': 'bridge', 'respawn': True, 'respawn_delay': 0.0, 'parameters': [{}], 'additional_env': {'OMP_NUM_THREADS': '1', 'OPENBLAS_NUM_THREADS': '1', 'MKL_NUM_THREADS': '1', 'LP_NUM_THREADS': '1'}},
 ]
 

@@ -20,7 +20,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "echo": ("raspv_bringup.introspect_cli", "print messages of a topic"),
     "param": ("raspv_bringup.param_cli", "get, set or list a running node's parameters"),
     "nodes": ("raspv_bringup.nodes_cli", "list the node kinds and their parameters"),
-    "bench": ("raspv_bringup.bench", "benchmarks with figures and ratios against peers"),
+    "bench": ("raspv_bench.bench_cli", "benchmarks with figures and ratios against peers"),
     "sim": ("raspv_sim.sim_cli", "world files and logged runs: check, map, render, plot"),
     "hmd-client": ("raspv_hmd.client_cli", "reference headset client: receive frames, send head motion, measure latency"),
     "teleop": ("raspv_bringup.teleop_cli", "drive the avatar and turn its head from this terminal"),

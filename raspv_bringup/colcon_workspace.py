@@ -50,7 +50,8 @@ PIP_NAMES = {"rosbags": "rosbags", "foxglove": "foxglove-sdk", "lz4": "rosbags",
 # Imported only when a user asks for them (camera SDKs, torch models, Ray sweeps, image metrics):
 # optional extras of pyproject.toml, not package dependencies.
 OPTIONAL = {"pyrealsense2", "openni", "depthai", "libusb_package", "torch", "ray", "skimage",
-            "pulse2percept", "dynaphos", "ai_edge_litert", "onnx", "playwright", "tqdm"}
+            "pulse2percept", "dynaphos", "ai_edge_litert", "onnx", "playwright", "tqdm",
+            "pytest"}   # pytest: the test harness (raspv_bringup.testing.dev_requirement), only under pytest
 ROS_PACKAGES = {"rclpy", "ament_index_python", "launch", "launch_ros"}
 # Extra files a package installs: (directory inside the repository, glob patterns). Installed
 # as site-packages/<dir>/… because the code looks for them beside its package folder.
@@ -66,7 +67,7 @@ SHARE_FILES: dict[str, dict[str, str]] = {
 }
 DESCRIPTIONS = {
     "raspv_bags": "RASPV-py bags: recording, reading, repair, playback, offline phosphene rendering, dataset import",
-    "raspv_bringup": "RASPV-py launcher and command line: graph files, supervisor, benchmarks, ros2 launch export",
+    "raspv_bringup": "RASPV-py launcher and command line: graph files, supervisor, test harness, ros2 launch export",
     "raspv_camera": "RASPV-py RGB-D sources: real cameras through their SDKs, bag replay, a synthetic room",
     "raspv_common": "RASPV-py shared pieces: camera model, conversions, node base, parameter schemas, occupancy grids",
     "raspv_experiments": "RASPV-py experiments: protocols, sessions with subjects, scripted subjects, sweeps, reports",
@@ -85,22 +86,21 @@ SETUP_PY = ('"""colcon (ament_python) build of this package: everything is in se
             "from setuptools import setup\n\nsetup()\n")
 
 
+# Development tools, not part of the workspace: the benchmarks import the test harness and their
+# peers (pulse2percept, dynaphos, Open3D, …); they run from the repository's venv (`raspv bench`).
+NOT_IN_WORKSPACE = {"raspv_bench"}
+
+
 def package_names(root: Path = REPO_ROOT) -> list[str]:
-    """The Python packages (top-level ``raspv_*`` folders with an ``__init__.py``)."""
-    return sorted(p.name for p in root.glob("raspv_*") if (p / "__init__.py").is_file())
-
-
-def is_benchmark(path: Path) -> bool:
-    """Benchmarks import the test harness and their peers: development tools, not dependencies."""
-    return path.stem == "bench" or path.stem.startswith("bench_") or path.stem.endswith("_bench")
+    """The Python packages (top-level ``raspv_*`` folders with an ``__init__.py``) but the
+    development tools (:data:`NOT_IN_WORKSPACE`)."""
+    return sorted(p.name for p in root.glob("raspv_*") if (p / "__init__.py").is_file() and p.name not in NOT_IN_WORKSPACE)
 
 
 def imported_modules(package_dir: Path) -> set[str]:
     """Top-level names of the modules the package's own code imports (stdlib left out)."""
     found: set[str] = set()
     for path in sorted(package_dir.rglob("*.py")):
-        if is_benchmark(path):
-            continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
             if isinstance(node, ast.Import):
                 found.update(alias.name.split(".")[0] for alias in node.names)

@@ -37,6 +37,7 @@ CONFIG_DIR = REPO_ROOT / "config"
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _NODE_KEYS = {"kind", "name", "restart", "spare", "env"}
 GLOBAL_PARAMS = {"use_sim_time": False}  # accepted for every node (ROS built-in)
+IMAGE_SOURCES = ("sim", "camera", "replay", "synthetic")   # node kinds publishing the camera images
 
 
 class GraphError(Exception):
@@ -206,12 +207,39 @@ def graph_from_doc(doc: Any, path: str | Path, overrides: list[str] | None = Non
                 errors.append(f"{path}: {node.name}.ros__parameters.{k}: expected true or false, got {v!r}")
         node.params.update(builtin)
         node.params.update(good)
+    _set_camera_source(nodes, sections, path, errors)
     for gk in global_params:
         if gk not in GLOBAL_PARAMS and not any(gk in schema_for(n.kind) for n in nodes):
             errors.append(f"{path}: /**.ros__parameters.{gk}: no node in this graph has this parameter")
     if errors:
         raise GraphError(errors)
     return Graph(path=path, nodes=nodes, env=env)
+
+
+def _set_camera_source(nodes: list[NodeEntry], sections: dict[str, dict[str, Any]], path: Path,
+                       errors: list[str]) -> None:
+    """Set every spv node's ``camera_source`` from the graph's image source (the first of
+    :data:`IMAGE_SOURCES`; the scene node's ``mounting`` for a live camera), so that the viewer's
+    head never turns a recorded or hand-held camera (:mod:`raspv_spv.camera_source`). A graph
+    without a source leaves the spv node's own value (default ``unknown``: not turned)."""
+    from raspv_spv.camera_source import camera_source_of
+
+    source = next((n for n in nodes if n.kind in IMAGE_SOURCES), None)
+    if source is None:
+        return
+    mounting = next((n.params.get("mounting", "head") for n in nodes if n.kind == "scene"), "head")
+    file = str(source.params.get("file", "") or "")
+    derived = camera_source_of(source.kind, file, mounting)
+    what = {"sim": "the simulator's head camera", "recording": f"a recording ({source.name} node)"}.get(
+        derived, f"a live camera carried on the {mounting} (scene.mounting)")
+    for node in nodes:
+        if node.kind != "spv":
+            continue
+        given = sections.get(node.name, {}).get("camera_source")
+        if given is not None and given != derived:
+            errors.append(f"{path}: {node.name}.ros__parameters.camera_source: {given!r}, but the images come from "
+                          f"{what}: {derived!r} (set by the launcher; leave it out)")
+        node.params["camera_source"] = derived
 
 
 def _prefixed(doc: dict, path: Path, overrides: list[str] | None, where: str, check_files: bool) -> Graph:

@@ -6,6 +6,8 @@
   captures its output and stops it with SIGINT, checking that no process is left behind.
 - :class:`Probe` is an rclpy node spinning in a background thread of the test process: it
   waits for messages (never fixed sleeps), collects them, publishes, and sets parameters.
+- :func:`dev_requirement` imports a test dependency of requirements/dev.txt: skipped where it
+  is not installed, a failure on an environment ``make install`` set up.
 """
 from __future__ import annotations
 
@@ -28,6 +30,26 @@ from raspv_common.ros_domains import lock_free_domain
 PARAM_RETRY_S = 5.0       # a parameter request without an answer is sent again after this [s]
 
 _domain_lock = None
+INSTALL_STAMP = ".raspv-install-stamp"     # written by tools/install.sh into the venv it completed
+
+
+def dev_requirement(module: str, package: str | None = None) -> Any:
+    """Import ``module`` of a test dependency (``package``, requirements/dev.txt). On an
+    environment ``make install`` completed (its stamp in ``sys.prefix``) a missing or broken one
+    fails the test — the install checks they import, so its tests must run, not skip; elsewhere
+    (a bare ``pip install -e .``) the test is skipped with the reason."""
+    import importlib
+
+    import pytest
+
+    package = package or module.split(".")[0]
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        if (Path(sys.prefix) / INSTALL_STAMP).exists():
+            pytest.fail(f"{package} (requirements/dev.txt) does not import in this environment make install set up: "
+                        f"{exc}; run make install again", pytrace=False)
+        pytest.skip(f"{package} (requirements/dev.txt) is not installed: pip install -r requirements/dev.txt")
 
 
 def claim_private_domain(low: int = 30, high: int = 160) -> int:

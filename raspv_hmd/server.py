@@ -21,55 +21,36 @@ from __future__ import annotations
 import asyncio
 import collections
 import hmac
-import ipaddress
 import math
 import secrets
 import ssl
-import statistics
 import threading
 import time
 from dataclasses import dataclass
-from importlib import resources
-from typing import Any, Callable, Protocol
+from typing import Any, Callable
 from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 from websockets.asyncio.server import ServerConnection, serve
-from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
-from websockets.http11 import Request, Response
 
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_hmd import protocol as P
+from raspv_hmd.client_session import CLOSE_TIMEOUT_S, HARD_MESSAGE_LIMIT, ClientSession, ClientStats, Drop, Link
 from raspv_hmd.control import ControlArbiter, DeadMan
 from raspv_hmd.frame_encoding import LevelsFrame, OutgoingFrame
+from raspv_hmd.http_pages import STATIC_FILES, WS_PATH, HttpPages, is_loopback
+from raspv_hmd.tcp_link import TcpLink
+from raspv_hmd.websocket_link import WebSocketLink
 
-HARD_MESSAGE_LIMIT = 65536          # bytes; a client sending more than this in one message is dropped
-CLOSE_TIMEOUT_S = 1.0               # wait this long for a client's closing handshake, then close the socket
+__all__ = ["CLOSE_TIMEOUT_S", "STATIC_FILES", "WS_PATH", "Callbacks", "ClientStats", "HeadsetServer", "ServerConfig",
+           "ServerError", "ServerStats", "is_loopback"]
+
 BYE_TIMEOUT_S = 0.5                 # a bye that cannot be written by then (client not reading) is given up
-WS_PATH = "/ws"
-STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
-                "/index.html": ("index.html", "text/html; charset=utf-8"),
-                "/client.js": ("client.js", "text/javascript; charset=utf-8"),
-                "/levels_renderer.js": ("levels_renderer.js", "text/javascript; charset=utf-8"),
-                "/levels_kernels.wasm": ("levels_kernels.wasm", "application/wasm"),
-                "/audio_cues.js": ("audio_cues.js", "text/javascript; charset=utf-8"),
-                "/style.css": ("style.css", "text/css; charset=utf-8")}
-LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
-CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "
-       "style-src 'self'; script-src 'self' 'wasm-unsafe-eval'")     # WebAssembly: the levels kernels
 
 
 class ServerError(RuntimeError):
     """The server could not start (port in use, bad address, bad TLS files)."""
-
-
-class _Drop(Exception):
-    """The client must be disconnected; ``code`` is counted like a refusal."""
-
-    def __init__(self, code: str, message: str) -> None:
-        super().__init__(message)
-        self.code = code
 
 
 @dataclass(frozen=True)
@@ -110,15 +91,6 @@ class ServerConfig:
         return is_loopback(self.host)
 
 
-def is_loopback(host: str) -> bool:
-    if host in LOOPBACK_NAMES:
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
 def _noop(*_: Any) -> None:
     return None
 
@@ -137,22 +109,6 @@ class Callbacks:
 
 
 @dataclass
-class ClientStats:
-    id: int
-    name: str
-    peer: str
-    transport: str
-    role: str
-    format: str
-    received: int
-    refused: dict[str, int]
-    ignored: int
-    frames_sent: int
-    frames_skipped: int
-    ack_rtt_ms: float | None
-
-
-@dataclass
 class ServerStats:
     clients: list[ClientStats]
     connections: int                  # accepted since start
@@ -160,159 +116,6 @@ class ServerStats:
     dropped: dict[str, int]           # clients dropped after the hello, by reason
     refused_total: int                # refused messages of all clients, including gone ones
     frames_submitted: int
-
-
-class _Link(Protocol):
-    """One client's transport: JSON text and frames out, messages in (``recv`` → None when the
-    client closed)."""
-
-    transport: str
-    said_bye: bool                       # set by _send_bye: close() then expects only the closing handshake
-
-    async def send_text(self, text: str) -> None: ...
-    async def send_frame(self, data: bytes) -> None: ...
-    async def recv(self) -> str | bytes | None: ...
-    async def close(self) -> None: ...
-    def cut(self) -> None: ...
-
-
-class _WebSocketLink:
-    transport = "websocket"
-
-    def __init__(self, ws: ServerConnection) -> None:
-        self.ws = ws
-        self.said_bye = False             # the server told the client why it goes (_send_bye)
-        self._receiving = False
-
-    async def send_text(self, text: str) -> None:
-        await self.ws.send(text)
-
-    async def send_frame(self, data: bytes) -> None:
-        await self.ws.send(data)
-
-    async def recv(self) -> str | bytes | None:
-        self._receiving = True
-        try:
-            msg = await self.ws.recv()
-        except ConnectionClosed as exc:
-            if exc.sent is not None and exc.sent.code == 1009:
-                raise _Drop("oversized", f"message above {HARD_MESSAGE_LIMIT} bytes") from None
-            return None
-        finally:
-            self._receiving = False
-        if isinstance(msg, bytes):
-            raise P.ProtocolError("binary", "clients send JSON text messages, not binary ones")
-        return msg
-
-    async def close(self) -> None:
-        if not self.said_bye or self._receiving:   # receiving elsewhere: that loop cuts (_receive_loop)
-            await self.ws.close()
-            return
-        # after a bye the only answer expected is the closing handshake; a client that sends a
-        # message instead is not listening, and is cut off at once rather than after the timeout
-        closing = asyncio.create_task(self.ws.close())
-        try:
-            await asyncio.wait_for(self.ws.recv(), CLOSE_TIMEOUT_S)
-        except (ConnectionClosed, asyncio.TimeoutError):
-            pass
-        else:
-            self.cut()
-        await closing
-
-    def cut(self) -> None:
-        """Close the connection now (what is buffered is still sent), no closing handshake."""
-        self.ws.transport.close()
-
-
-class _TcpLink:
-    transport = "tcp"
-
-    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        self.reader, self.writer = reader, writer
-        self.said_bye = False
-        writer.transport.set_write_buffer_limits(high=P.MAX_CLIENT_MESSAGE * 16)
-
-    async def _write(self, kind: int, data: bytes) -> None:
-        self.writer.writelines([P.TCP_HEADER.pack(len(data), kind), data])
-        await self.writer.drain()
-
-    async def send_text(self, text: str) -> None:
-        await self._write(P.TCP_JSON, text.encode())
-
-    async def send_frame(self, data: bytes) -> None:
-        await self._write(P.TCP_FRAME, data)
-
-    async def recv(self) -> str | bytes | None:
-        try:
-            length, kind = P.TCP_HEADER.unpack(await self.reader.readexactly(P.TCP_HEADER.size))
-            if length > HARD_MESSAGE_LIMIT:
-                raise _Drop("oversized", f"message of {length} bytes announced; the limit is {HARD_MESSAGE_LIMIT}")
-            payload = await self.reader.readexactly(length)
-        except (asyncio.IncompleteReadError, ConnectionError):
-            return None
-        if kind != P.TCP_JSON:
-            raise P.ProtocolError("bad_kind", f"clients send JSON messages (kind {P.TCP_JSON}), got kind {kind}")
-        return payload
-
-    async def close(self) -> None:
-        self.writer.close()                 # flushes what is buffered, then closes
-        try:
-            await asyncio.wait_for(self.writer.wait_closed(), CLOSE_TIMEOUT_S)
-        except (OSError, asyncio.TimeoutError):
-            self.writer.transport.abort()   # the client does not read: do not linger
-
-    def cut(self) -> None:
-        self.writer.transport.close()
-
-
-class _Session:
-    def __init__(self, cid: int, link: _Link, peer: str, remote: bool, hello: P.Hello, compression: str,
-                 max_rate: float) -> None:
-        self.id = cid
-        self.link = link
-        self.peer = peer
-        self.name = hello.name or f"client {cid}"
-        wanted = hello.format if hello.format != "auto" else compression
-        image = wanted if wanted in ("raw", "png") else "png" if remote else "raw"
-        self.image_format = P.FORMAT_PNG if image == "png" else P.FORMAT_RAW   # images when levels cannot be sent
-        self.format = P.FORMAT_LEVELS if wanted == "levels" else self.image_format
-        self.sprites_sent = -1                       # map id of the sprites this client has (levels stream)
-        self.window = hello.window
-        self.received = 0
-        self.refused: collections.Counter[str] = collections.Counter()
-        self.ignored = 0
-        self.frames_sent = 0
-        self.frames_skipped = 0
-        self.last_sent = 0
-        self.in_flight: collections.deque[tuple[int, float]] = collections.deque()   # (seq, sent time)
-        self.ack_rtts: collections.deque[float] = collections.deque(maxlen=200)
-        self.frame_ready = asyncio.Event()
-        self.acked = asyncio.Event()
-        self.wants_control = hello.role == "control"
-        self.last_active = time.monotonic()          # last head/twist/key/param message (or the hello)
-        self.evicted: str | None = None              # why the server made room with this client
-        self.task: asyncio.Task | None = None
-        self.tokens = max_rate
-        self.max_rate = max_rate
-        self.last_refill = time.monotonic()
-
-    def take_token(self, now: float) -> bool:
-        self.tokens = min(self.max_rate, self.tokens + (now - self.last_refill) * self.max_rate)
-        self.last_refill = now
-        if self.tokens < 1.0:
-            return False
-        self.tokens -= 1.0
-        return True
-
-    def stats(self, role: str) -> ClientStats:
-        return ClientStats(self.id, self.name, self.peer, self.link.transport, role, P.FORMAT_NAMES[self.format],
-                           self.received, dict(self.refused), self.ignored, self.frames_sent, self.frames_skipped,
-                           statistics.median(self.ack_rtts) if self.ack_rtts else None)
-
-
-def _load_client_files() -> dict[str, bytes]:
-    root = resources.files("raspv_hmd") / "client"
-    return {name: (root / name).read_bytes() for name, _ in set(STATIC_FILES.values())}
 
 
 class HeadsetServer:
@@ -324,9 +127,8 @@ class HeadsetServer:
         self.token = self.config.token or ("" if self.config.loopback else secrets.token_urlsafe(12))
         self.port: int | None = None
         self.tcp_port: int | None = None
-        self._files = _load_client_files()
         self._ssl = self._ssl_context()
-        self._sessions: dict[int, _Session] = {}
+        self._sessions: dict[int, ClientSession] = {}
         self._arbiter = ControlArbiter()
         self._deadman = DeadMan(self.config.deadman_s)
         self._deadman_timer: asyncio.TimerHandle | None = None
@@ -341,6 +143,7 @@ class HeadsetServer:
         self._png_clients = 0
         self._connections = 0
         self._rejected: collections.Counter[str] = collections.Counter()
+        self._http = HttpPages(self.token, lambda: self.port, self._rejected)    # the page, the upgrade's checks
         self._dropped: collections.Counter[str] = collections.Counter()
         self._refused_total = 0
         self._next_id = 1
@@ -410,7 +213,7 @@ class HeadsetServer:
         cfg = self.config
         self._stop = asyncio.Event()
         try:
-            ws_server = await serve(self._ws_handler, cfg.host, cfg.port, process_request=self._process_request,
+            ws_server = await serve(self._ws_handler, cfg.host, cfg.port, process_request=self._http.process_request,
                                     compression=None, max_size=HARD_MESSAGE_LIMIT, max_queue=8,
                                     ssl=self._ssl, server_header=None, ping_interval=10, ping_timeout=10,
                                     open_timeout=cfg.hello_timeout_s, close_timeout=CLOSE_TIMEOUT_S)
@@ -600,7 +403,7 @@ class HeadsetServer:
                 if s.format == P.FORMAT_LEVELS:
                     self._send(P.server_message("status", ok=False, text=f"images instead of levels: {reason}"), s.id)
 
-    def _next_for(self, s: _Session) -> tuple[int, Any] | None:
+    def _next_for(self, s: ClientSession) -> tuple[int, Any] | None:
         """(format, frame) this client gets next: a levels frame whose sprites it has (or can get
         now), else the newest image."""
         if s.format == P.FORMAT_LEVELS and not self._levels_unavailable:
@@ -610,7 +413,7 @@ class HeadsetServer:
             return P.FORMAT_LEVELS, frame
         return (s.image_format if s.format == P.FORMAT_LEVELS else s.format), self._latest
 
-    async def _sender(self, s: _Session) -> None:
+    async def _sender(self, s: ClientSession) -> None:
         while True:
             await s.frame_ready.wait()
             s.frame_ready.clear()
@@ -633,46 +436,16 @@ class HeadsetServer:
             await s.link.send_frame(data)
             s.frames_sent += 1
 
-    # -- HTTP -----------------------------------------------------------------------------------
-    def _host_allowed(self, request: Request) -> bool:
-        if self.token:
-            return True
-        host = urlsplit("//" + request.headers.get("Host", "")).hostname or ""
-        return is_loopback(host)
-
-    def _process_request(self, connection: ServerConnection, request: Request) -> Response | None:
-        url = urlsplit(request.path)
-        if not self._host_allowed(request):
-            return _response(403, "This bridge listens on loopback only; open it as http://127.0.0.1:"
-                                  f"{self.port}/ (Host {request.headers.get('Host')!r} refused).")
-        if url.path == WS_PATH:
-            origin = request.headers.get("Origin")
-            if origin is not None and urlsplit(origin).netloc != request.headers.get("Host"):
-                self._rejected["origin"] += 1
-                return _response(403, f"WebSocket from another origin ({origin}) refused")
-            return None
-        if url.path == "/favicon.ico":
-            return _response(204, b"")
-        if url.path not in STATIC_FILES:
-            return _response(404, f"{url.path} not found; the client page is at /")
-        name, content_type = STATIC_FILES[url.path]
-        if name == "index.html" and self.token:
-            given = parse_qs(url.query).get("token", [""])[0]
-            if not hmac.compare_digest(given.encode(), self.token.encode()):
-                return _response(403, "This bridge needs its token: open the URL printed at its start-up "
-                                      "(…/?token=…).")
-        return _response(200, self._files[name], content_type)
-
     # -- connections ----------------------------------------------------------------------------
     async def _ws_handler(self, ws: ServerConnection) -> None:
         query = parse_qs(urlsplit(ws.request.path).query) if ws.request else {}
         peer = ws.remote_address
-        await self._serve_client(_WebSocketLink(ws), peer, query.get("token", [""])[0])
+        await self._serve_client(WebSocketLink(ws), peer, query.get("token", [""])[0])
 
     async def _tcp_handler(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        await self._serve_client(_TcpLink(reader, writer), writer.get_extra_info("peername"), "")
+        await self._serve_client(TcpLink(reader, writer), writer.get_extra_info("peername"), "")
 
-    async def _serve_client(self, link: _Link, peer: Any, url_token: str) -> None:
+    async def _serve_client(self, link: Link, peer: Any, url_token: str) -> None:
         task = asyncio.current_task()
         self._tasks.add(task)
         try:
@@ -680,7 +453,7 @@ class HeadsetServer:
         finally:
             self._tasks.discard(task)
 
-    async def _serve_client_until_gone(self, link: _Link, peer: Any, url_token: str) -> None:
+    async def _serve_client_until_gone(self, link: Link, peer: Any, url_token: str) -> None:
         peer_host = peer[0] if isinstance(peer, tuple) and peer else str(peer)
         peer_text = f"{peer_host}:{peer[1]}" if isinstance(peer, tuple) and len(peer) > 1 else peer_host
         hello = await self._handshake(link, peer_text, url_token)
@@ -688,7 +461,7 @@ class HeadsetServer:
             await link.close()
             return
         cid, self._next_id = self._next_id, self._next_id + 1
-        s = _Session(cid, link, peer_text, not is_loopback(peer_host), hello, self.config.compression,
+        s = ClientSession(cid, link, peer_text, not is_loopback(peer_host), hello, self.config.compression,
                      self.config.max_rate)
         s.task = asyncio.current_task()
         self._sessions[cid] = s
@@ -714,7 +487,7 @@ class HeadsetServer:
         reason = "left"
         try:
             reason = await self._receive_loop(s)
-        except _Drop as exc:
+        except Drop as exc:
             if exc.code == "oversized":          # the message that broke the limit is a refusal too
                 s.refused[exc.code] += 1
                 self._refused_total += 1
@@ -751,12 +524,12 @@ class HeadsetServer:
             if changed:
                 await self._announce_roles()
 
-    async def _handshake(self, link: _Link, peer: str, url_token: str) -> P.Hello | None:
+    async def _handshake(self, link: Link, peer: str, url_token: str) -> P.Hello | None:
         try:
             first = await asyncio.wait_for(link.recv(), self.config.hello_timeout_s)
         except asyncio.TimeoutError:
             return await self._reject("hello_timeout", peer, f"no hello within {self.config.hello_timeout_s:g} s", link)
-        except (_Drop, P.ProtocolError) as exc:
+        except (Drop, P.ProtocolError) as exc:
             return await self._reject(getattr(exc, "code", "bad_hello"), peer, str(exc), link)
         except (ConnectionError, ConnectionClosed):
             return None
@@ -806,7 +579,7 @@ class HeadsetServer:
         self._sessions.pop(victim.id, None)
         return len(self._sessions) < self.config.max_clients
 
-    async def _reject(self, code: str, peer: str, why: str, link: _Link | None = None) -> None:
+    async def _reject(self, code: str, peer: str, why: str, link: Link | None = None) -> None:
         """Count and log a refused connection, telling the client why when it can still listen."""
         self._rejected[code] += 1
         self._event(f"refused a client from {peer}: {why}")
@@ -814,20 +587,20 @@ class HeadsetServer:
             await self._send_bye(link, why)
         return None
 
-    async def _send_bye(self, link: _Link, reason: str) -> None:
+    async def _send_bye(self, link: Link, reason: str) -> None:
         link.said_bye = True
         try:
             await asyncio.wait_for(link.send_text(P.server_message("bye", reason=reason)), BYE_TIMEOUT_S)
         except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
             pass
 
-    async def _receive_loop(self, s: _Session) -> str:
+    async def _receive_loop(self, s: ClientSession) -> str:
         cfg = self.config
         while True:
             try:
                 raw = await asyncio.wait_for(s.link.recv(), cfg.idle_timeout_s)
             except asyncio.TimeoutError:
-                raise _Drop("idle", f"silent for {cfg.idle_timeout_s:g} s") from None
+                raise Drop("idle", f"silent for {cfg.idle_timeout_s:g} s") from None
             except P.ProtocolError as exc:
                 await self._refuse(s, exc)
                 continue
@@ -846,17 +619,17 @@ class HeadsetServer:
             except P.ProtocolError as exc:
                 await self._refuse(s, exc)
 
-    async def _refuse(self, s: _Session, exc: P.ProtocolError) -> None:
+    async def _refuse(self, s: ClientSession, exc: P.ProtocolError) -> None:
         s.refused[exc.code] += 1
         self._refused_total += 1
         total = sum(s.refused.values())
         if total >= self.config.max_refused:
             await self._send_bye(s.link, f"{total} refused messages; last: {exc}")
-            raise _Drop("abuse", f"{total} refused messages (last: {exc.code}: {exc})")
+            raise Drop("abuse", f"{total} refused messages (last: {exc.code}: {exc})")
         if s.refused[exc.code] <= 3 or total % 10 == 0:       # do not echo a flood back
             await self._say(s, P.server_message("refused", code=exc.code, reason=str(exc), count=total))
 
-    async def _dispatch(self, s: _Session, msg: P.ClientMessage) -> None:
+    async def _dispatch(self, s: ClientSession, msg: P.ClientMessage) -> None:
         if isinstance(msg, P.Ping):
             await self._say(s, P.server_message("pong", t=msg.t, server_time=time.time()))
             return
@@ -922,7 +695,7 @@ class HeadsetServer:
         for s in list(self._sessions.values()):
             await self._say(s, P.server_message("role", role="control" if s.id == ctl else "watch", controller=ctl))
 
-    async def _say(self, s: _Session, text: str) -> None:
+    async def _say(self, s: ClientSession, text: str) -> None:
         try:
             await asyncio.wait_for(s.link.send_text(text), 5.0)
         except (ConnectionError, ConnectionClosed, asyncio.TimeoutError):
@@ -939,15 +712,6 @@ class HeadsetServer:
             self.callbacks.on_event(text)
         except Exception:  # noqa: BLE001 - logging must never break serving
             pass
-
-
-def _response(status: int, body: str | bytes, content_type: str = "text/plain; charset=utf-8") -> Response:
-    data = body.encode() if isinstance(body, str) else body
-    reason = {200: "OK", 204: "No Content", 403: "Forbidden", 404: "Not Found"}.get(status, "")
-    headers = Headers([("Content-Type", content_type), ("Content-Length", str(len(data))),
-                       ("Cache-Control", "no-store"), ("X-Content-Type-Options", "nosniff"),
-                       ("Content-Security-Policy", CSP), ("Connection", "close")])
-    return Response(status, reason, headers, data)
 
 
 def _interface_addresses() -> list[str]:

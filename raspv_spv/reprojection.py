@@ -28,8 +28,12 @@ z up; ``/head/orientation`` is B ← H, identity looks ahead); world W (``/camer
 
 Only the rotation is reprojected: when the head turns about the neck, the eye also moves a
 few centimetres, and that parallax is not (near objects shift by up to a degree or two until the
-next frame). The reprojection assumes ``/head/orientation`` turns the camera (the simulator, a
-head-mounted camera): turn it off for recordings, whose camera the headset does not move.
+next frame). The reprojection assumes ``/head/orientation`` turns the camera, so it is decided
+from the images' source (:mod:`raspv_spv.camera_source`), not by the ``reprojection`` switch alone: the
+simulator's head camera and a real camera mounted on the head follow the viewer's head; a
+recording (a replayed bag, a camera node playing a file) and a camera on the chest, in the hand
+or on a robot never do. The launcher sets the spv node's ``camera_source`` from the graph
+(:func:`~raspv_spv.camera_source.camera_source_of`).
 
 Simulated device latency L: the display shows the newest frame captured at or before now − L,
 turned to the head orientation at now − L — a device whose camera-to-implant delay is L for
@@ -50,6 +54,7 @@ import numpy as np
 
 from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.rotations import quaternion_to_matrix
+from raspv_spv.camera_source import head_turns_camera
 from raspv_spv.frame_inputs import FrameInputs
 
 # R_{H←C}: the optical frame's axes (x right, y down, z forward) in the head frame (x forward,
@@ -223,7 +228,8 @@ class FrameHistory:
 
 class DisplayView:
     """What the display shows at each tick: the frame for the device latency, turned to the
-    head orientation of the display time (when ``reprojection`` is on).
+    head orientation of the display time (when ``reprojection`` is on and the viewer's head
+    turns the camera of ``camera_source``, :func:`~raspv_spv.camera_source.head_turns_camera`).
 
     The node feeds poses into :attr:`tracker` and frames with :meth:`add_frame`, and asks
     :meth:`levels_at` at every tick. A turn re-runs the mode on the frame with turned rays
@@ -232,16 +238,17 @@ class DisplayView:
     setting changed at run time), so the change shows on the last frame at once.
     """
 
-    def __init__(self, reprojection: bool = True, latency_ms: float = 0.0) -> None:
-        self.reprojection = reprojection
+    def __init__(self, reprojection: bool = True, latency_ms: float = 0.0, camera_source: str = "sim") -> None:
+        self.reprojection = reprojection and head_turns_camera(camera_source)
         self.latency_s = latency_ms / 1000.0
         self.tracker = ViewTracker(history_s=max(HISTORY_S, self.latency_s + 1.0))
         self.frames = FrameHistory()
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
 
-    def configure(self, reprojection: bool, latency_ms: float) -> None:
-        self.reprojection, self.latency_s = reprojection, latency_ms / 1000.0
+    def configure(self, reprojection: bool, latency_ms: float, camera_source: str = "sim") -> None:
+        self.reprojection = reprojection and head_turns_camera(camera_source)
+        self.latency_s = latency_ms / 1000.0
         self._last = None
 
     def add_frame(self, frame: DisplayFrame) -> None:

@@ -110,7 +110,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0, "stairs": 0.0}
         self._waiting_since: float | None = None
         # frames with their levels, poses, and what the display shows (reprojection, device latency)
-        self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"])
+        self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"], self.params["camera_source"])
         self._pending: FrameInputs | None = None        # a frame waiting for its camera pose
         self._pending_shown = False                     # … already shown with a predicted pose
         # stale inputs (raspv_spv.staleness): what the display shows instead
@@ -153,7 +153,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
     def _update_subscriptions(self, needs: frozenset[str], reprojection: bool | None = None) -> None:
         """Subscribe to the inputs the mode and overlays read (needed or optional) and those the
         reprojection reads, and only those."""
-        reprojection = self.params["reprojection"] if reprojection is None else reprojection
+        reprojection = self.view.reprojection if reprojection is None else reprojection
         mode_needs = frozenset(self.sim.mode.needs)
         watched = staleness.watched_inputs(mode_needs, [o.needs | o.optional_inputs for o in self.sim.overlays])
         self.staleness.watch(watched, staleness.expected_with(mode_needs), staleness.required_inputs(mode_needs))

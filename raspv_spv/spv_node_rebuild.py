@@ -89,9 +89,9 @@ class SpvReconfiguration:
         self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
-        if "reprojection" in changes or "device_latency_ms" in changes:
-            self.view.configure(merged["reprojection"], merged["device_latency_ms"])
-            self._update_subscriptions(self.sim.needs, merged["reprojection"])
+        if {"reprojection", "device_latency_ms", "camera_source"} & set(changes):
+            self.view.configure(merged["reprojection"], merged["device_latency_ms"], merged["camera_source"])
+            self._update_subscriptions(self.sim.needs, self.view.reprojection)
         if verdict is not None and verdict.warn:
             self.get_logger().warning(verdict.message)
         return None

@@ -7,6 +7,7 @@ rebuilt and swapped in at once, or the change is refused with the reason.
 """
 from raspv_common.params import Param
 from raspv_spv.modes import MODES, OVERLAYS
+from raspv_spv.camera_source import CAMERA_SOURCES
 
 PARAMS = [
     Param("device", "default", "device preset (default, argus_ii, argus_ii_axon, alpha_ims, prima, orion, ... see "
@@ -46,7 +47,11 @@ PARAMS = [
           "temporal model advancing by the input's elapsed time (scripted subjects, sweeps in sim time)", dynamic=False),
     Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("reprojection", True, "re-sample the last camera frame for the newest head orientation at every display tick "
-          "(needs /head/orientation to turn the camera: sim, head-mounted camera; off for recordings)"),
+          "(only when the viewer's head turns the camera: camera_source sim or head)"),
+    Param("camera_source", "unknown", "where the images come from, set by the launcher from the graph's source node: "
+          "sim (the avatar's head camera), head/chest/hand/robot/custom (a live camera's mounting), recording (a bag "
+          "or a camera node playing a file); only sim and head are turned by the viewer's head",
+          choices=tuple(CAMERA_SOURCES)),
     Param("display_on_input", True, "with the temporal model off, show a head turn or a new camera frame at once "
           "instead of at the next display tick (at most 4 x rate frames/s); with it on, frames keep the model's rate"),
     Param("predict_pose", True, "a frame whose camera pose comes later (RGB-D odometry) is shown at once with the pose "

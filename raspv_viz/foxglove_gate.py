@@ -18,7 +18,7 @@ from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
-from raspv_hmd.server import is_loopback
+from raspv_hmd.http_pages import is_loopback
 
 __all__ = ["TokenGate", "is_loopback"]
 MAX_MESSAGE = 64 * 1024 * 1024      # bytes: a client's largest frame to the server (parameter sets, not images)

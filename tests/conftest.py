@@ -6,7 +6,8 @@
 - ``private_cache``: a per-session RASPV_CACHE_DIR (temporal tables, sprite banks; not ~/.cache),
   for the folders whose tests build them (their conftest makes it autouse).
 - ``graph``: start a graph (dict or YAML path) with ``raspv launch`` in a subprocess; stopped with
-  SIGINT at the end of the test, failing it if any process is left behind.
+  SIGINT at the end of the test, failing it if any process is left behind or, unless the test
+  stopped it itself (and checked ``g.stop()``'s code), if the launcher's exit code is not 0.
 """
 from __future__ import annotations
 
@@ -67,9 +68,14 @@ def graph(tmp_path, ros_domain):
     yield start
     errors = []
     for g in started:
+        stopped_by_test = g.returncode is not None       # the test stopped it and had its exit code to check
         try:
-            g.stop()
+            code = g.stop()
         except AssertionError as exc:
             errors.append(str(exc))
+            continue
+        if not stopped_by_test and code != 0:
+            errors.append(f"graph {g.path.name} ended with exit code {code} (0 after a requested stop: a node died "
+                          f"or the launcher failed):\n{g.output[-3000:]}")
     if errors:
         pytest.fail("\n".join(errors))

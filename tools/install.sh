@@ -12,6 +12,9 @@ MSG_STAMP=$VENV/.raspv-msgs-stamp
 
 say() { echo "raspv install: $*"; }
 die() { echo "raspv install: $*" >&2; exit 1; }
+# pip with its exit status (pipefail), without the warning it prints per package for index
+# folders this machine's pip.conf names but lacks
+quiet_pip() { "$VPY" -m pip "$@" 2>&1 | { grep -v -E "is ignored: it is neither a file nor a directory" || true; }; }
 
 # --- prerequisites (one line each, naming the fix) -----------------------------------------
 pick_python() {
@@ -53,19 +56,23 @@ fi
 VPY=$VENV/bin/python
 if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
   say "installing ROS 2 Jazzy wheels and Python dependencies (a few minutes the first time)"
-  # pip prints a warning per package for index folders this machine's pip.conf names but lacks.
-  "$VPY" -m pip install --disable-pip-version-check -q \
+  quiet_pip install --disable-pip-version-check -q \
       -r "$ROOT/requirements/ros.txt" -r "$ROOT/requirements/python.txt" -r "$ROOT/requirements/learn.txt" \
       -r "$ROOT/requirements/dev.txt" \
-      -c "$ROOT/requirements/constraints.txt" 2>&1 | grep -v -E "is ignored: it is neither a file nor a directory" || true
-  "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' 2>/dev/null ||
+      -c "$ROOT/requirements/constraints.txt" ||
+    die "pip install failed (its error is above); nothing was marked installed: fix it and run make install again"
+  "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' ||
     die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt"
+  # the peers and tools the tests need (requirements/dev.txt): on an environment this script set
+  # up, their tests run instead of skipping (raspv_bringup.testing.dev_requirement)
+  "$VPY" -c 'import pytest, pulse2percept, dynaphos, torch, onnx, ai_edge_litert, ray, playwright.sync_api, pyrealsense2, depthai' ||
+    die "a test dependency (requirements/dev.txt) does not import (error above); rerun: $VPY -m pip install -r requirements/dev.txt"
   # open3d needs libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
   # at the copy shipped by the libusb-package wheel, so no system package is needed.
   LIBUSB=$("$VPY" -c 'import libusb_package; print(libusb_package.get_library_path())')
   ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
-  "$VPY" -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e "$ROOT" 2>&1 |
-    grep -v -E "is ignored: it is neither a file nor a directory" || true
+  quiet_pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e "$ROOT" ||
+    die "installing the project (pip install -e .) failed (its error is above)"
   rm -f "$MSG_STAMP"   # new ROS wheels: rebuild the messages against them
 fi
 

@@ -12,7 +12,7 @@ from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from sensor_msgs.msg import CameraInfo
 
 from raspv_bringup.graph import CONFIG_DIR
-from raspv_camera.bench import tum_drift_frames
+from raspv_bench.camera import tum_drift_frames
 from raspv_camera.sdk_recordings import (SourceFrame, write_depthai_recording, write_realsense_recording)
 from raspv_common import topics
 from raspv_common.conversions import stamp_to_seconds

@@ -53,6 +53,44 @@ def test_frames_intrinsics_scale_and_stamps_come_back(realsense_recording):
     assert all(rec.frames[0].time - 1e-6 <= s.sensor_time <= rec.frames[-1].time + 1e-6 for s in imu)
 
 
+def test_the_imu_is_turned_into_the_colour_optical_frame_by_the_device_extrinsics():
+    """An IMU mounted rotated in the device (a D435i's motion module's axes are not the colour
+    camera's): the extrinsics as librealsense stores them (column-major) turn its readings into
+    the colour optical frame. (The SDK's recorder does not keep a software device's motion-stream
+    extrinsics — "Requested extrinsics are not available" on playback, registered to colour or to
+    depth — so the recording tests run with identity; this checks the rotation path itself.)"""
+    import types
+
+    from raspv_camera import sdk_imports
+    from raspv_camera.realsense_driver import _rotation_to
+
+    rs = sdk_imports.realsense()
+
+    def rot(axis, deg):
+        c, s_ = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        i, j = [k for k in range(3) if k != axis]
+        R = np.eye(3)
+        R[i, i], R[i, j], R[j, i], R[j, j] = c, -s_, s_, c
+        return R
+    color_from_imu = rot(2, 90.0) @ rot(0, 20.0)                # 90° about z after 20° about x: no symmetry
+    stored = types.SimpleNamespace(rotation=list(color_from_imu.T.ravel()), translation=[0.0, 0.0, 0.0])
+    imu_profile = types.SimpleNamespace(get_extrinsics_to=lambda dst: stored)
+    assert np.allclose(_rotation_to(imu_profile, None), color_from_imu)
+    driver = RealSenseDriver(CameraSettings())
+    driver._imu_rotation = {rs.stream.accel: _rotation_to(imu_profile, None),
+                            rs.stream.gyro: _rotation_to(imu_profile, None)}
+    gyro_c = np.array([0.1, -0.2, 0.3])
+    driver._motion.extend([(rs.stream.accel, 1.0, color_from_imu.T @ GRAVITY_C),     # read in the IMU's axes
+                           (rs.stream.gyro, 1.0, color_from_imu.T @ gyro_c)])
+    driver._collect_motion()
+    [sample] = driver.imu_samples()
+    assert not np.allclose(color_from_imu.T @ GRAVITY_C, GRAVITY_C, atol=0.5)
+    assert np.allclose(sample.accel, GRAVITY_C) and np.allclose(sample.gyro, gyro_c)
+    # a rotation that is not one (a bad calibration) is ignored rather than skewing gravity
+    bad = types.SimpleNamespace(get_extrinsics_to=lambda dst: types.SimpleNamespace(rotation=[2.0] + [0.0] * 8))
+    assert np.array_equal(_rotation_to(bad, None), np.eye(3))
+
+
 def test_registration_undoes_a_depth_camera_beside_the_colour_camera(tmp_path, tum_frame):
     _, depth, K = tum_frame                         # registered depth of a real Kinect frame
     depth_cam = CameraIntrinsics(640, 480, 400.0, 400.0, 320.5, 238.5)   # wider, elsewhere

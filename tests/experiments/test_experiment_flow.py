@@ -22,6 +22,7 @@ import yaml
 
 from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.session import read_jsonl
+from raspv_bringup.testing import dev_requirement
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 CHROMIUM = "/usr/bin/chromium"
@@ -127,13 +128,16 @@ def test_sessions_run_to_the_end_and_resume_after_a_kill(study):
     assert (s2 / "protocol.yaml").read_text() == (study["root"] / "my_study.yaml").read_text()
 
 
+def test_the_report_lists_every_trial_once(study):
+    rows = (study["report"].parent / "trials.csv").read_text().splitlines()
+    assert len(rows) == 1 + 12                                      # header and 12 trials (the cut attempt left no record)
+
+
 def test_report_opens_in_a_browser(study):
     if not os.path.exists(CHROMIUM):
         pytest.skip(f"{CHROMIUM} is not installed (Debian: apt-get install -y chromium)")
-    sync_api = pytest.importorskip("playwright.sync_api")
+    sync_api = dev_requirement("playwright.sync_api")
     report = study["report"]
-    rows = (report.parent / "trials.csv").read_text().splitlines()
-    assert len(rows) == 1 + 12                                      # header and 12 trials (the cut attempt left no record)
     with sync_api.sync_playwright() as p, tempfile.TemporaryDirectory(prefix="raspv-chromium-") as profile:
         ctx = p.chromium.launch_persistent_context(profile, executable_path=CHROMIUM, args=ARGS, headless=True,
                                                    viewport={"width": 1200, "height": 900})

@@ -89,7 +89,9 @@ def test_report_from_sessions(tmp_path):
         assert (tmp_path / "report" / "figures" / f"{name}.png").stat().st_size > 1000
         assert (tmp_path / "report" / "figures" / f"{name}.pdf").exists()
         assert f"figures/{name}.png" in page
-    assert "Friedman" in page and "Wilcoxon" in page and "cannot give p &lt; 0.5" in page
+    # two conditions: Wilcoxon only (Friedman needs three; test_report_renders_a_friedman_result)
+    assert "Friedman: two conditions: the Wilcoxon test below is the comparison." in page and "χ²" not in page
+    assert "Wilcoxon" in page and "cannot give p &lt; 0.5" in page
     assert "6/6 (100 %)" in page and "4/6 (67 %)" in page
     with pytest.raises(ReportError, match="no trial records"):
         build_report([tmp_path / "report"], tmp_path / "r2")
@@ -169,3 +171,23 @@ def test_report_sections_factors_warnings_and_display(tmp_path):
     assert rows[0]["spv.mode"] in ("depth", "grey") and rows[0]["phosphenes_shown"] == "58"
     lenient = build_report([tmp_path / "s"], tmp_path / "r2", share_threshold=0.8).read_text()
     assert "at least 80 %" in lenient
+
+
+def test_report_renders_a_friedman_result(tmp_path):
+    """Three conditions, six subjects: the page shows Friedman's χ², p and Kendall's W as scipy
+    computes them on the subjects' medians."""
+    rng = np.random.default_rng(7)
+    times = {}
+    for i in range(6):
+        base = rng.uniform(8, 14)
+        times[f"S{i + 1:02d}"] = {c: list(np.round(base + shift + rng.normal(0, 1.0, 3), 2))
+                                  for c, shift in (("depth", 0.0), ("edges", 4.0), ("downsampling", 8.0))}
+        fake_session(tmp_path / "s", f"S{i + 1:02d}", times[f"S{i + 1:02d}"])
+    page = build_report([tmp_path / "s"], tmp_path / "report", "example").read_text()
+    conditions = ["depth", "edges", "downsampling"]
+    table = np.array([[np.median(times[s][c]) for c in conditions] for s in sorted(times)])
+    f = stats.friedmanchisquare(*table.T)
+    w = f.statistic / (6 * (3 - 1))
+    section = page.split("<h3>completion time [s]</h3>")[1].split("<h3>")[0]
+    assert f"Friedman χ²(2) = {f.statistic:.2f}, p = {f.pvalue:.3g}, Kendall's W = {w:.2f}." in section, section[:600]
+    assert f.pvalue < 0.05                       # the shifts are clear: the test is not a formality

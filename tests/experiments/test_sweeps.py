@@ -8,7 +8,8 @@ import yaml
 from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.report import build_report
 from raspv_experiments.session import read_jsonl
-from raspv_experiments.sweep import load_sweep, run_sweep
+from raspv_experiments.sweep import _store, load_sweep, run_sweep
+from raspv_bringup.testing import dev_requirement
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -48,7 +49,7 @@ def test_sweep_on_worker_processes(tmp_path):
 
 
 def test_the_same_sweep_on_a_local_ray_instance(tmp_path):
-    ray = pytest.importorskip("ray", reason="Ray is not installed (pip install -e '.[cluster]')")
+    ray = dev_requirement("ray")
     sweep = short_sweep(tmp_path, subjects=1)
     out = tmp_path / "out"
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
@@ -57,3 +58,13 @@ def test_the_same_sweep_on_a_local_ray_instance(tmp_path):
     finally:
         ray.shutdown()
     check_sessions(results, out, 1)
+    # a cluster without a shared disk: the node wrote the session on its own disk; the driver
+    # stores it from the records the Ray task returned (through Ray's object store)
+    driver = tmp_path / "driver_disk"
+    for r in results:
+        _store(r, driver)
+    node_session = out / "sessions" / "short_sweep" / results[0]["subject"]
+    stored = driver / "sessions" / "short_sweep" / results[0]["subject"]
+    assert read_jsonl(stored / "trials.jsonl") == read_jsonl(node_session / "trials.jsonl")
+    assert (stored / "session.json").read_text() == (node_session / "session.json").read_text()
+    assert "2 trial records" in build_report([driver], tmp_path / "driver_report").read_text()

@@ -37,3 +37,22 @@ def test_missing_prerequisite_is_named_with_its_fix(tmp_path, missing, expected)
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0], res.stderr
     assert not (tmp_path / "venv").exists()
+
+
+def test_a_failed_pip_install_stops_the_install_and_marks_nothing_installed(tmp_path):
+    """pip's error reaches the user and the stamp is not written (the next `make install` tries
+    again), instead of the old environment staying with the dev requirements' tests skipping."""
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    real = subprocess.check_output([shutil.which("python3") or "python3", "-c", "import sys; print(sys.executable)"],
+                                   text=True).strip()
+    fake = venv / "bin" / "python"            # the real interpreter, with a pip that cannot find a pin
+    fake.write_text(f'#!/bin/sh\nif [ "$1" = "-m" ] && [ "$2" = "pip" ]; then\n'
+                    f'  echo "ERROR: No matching distribution found for torch==99.0"; exit 1\nfi\nexec {real} "$@"\n')
+    fake.chmod(0o755)
+    res = subprocess.run(["bash", str(ROOT / "tools/install.sh")], capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "RASPV_VENV": str(venv)})
+    assert res.returncode != 0
+    assert "No matching distribution found for torch==99.0" in res.stdout + res.stderr
+    assert "pip install failed" in res.stderr
+    assert not (venv / ".raspv-install-stamp").exists()

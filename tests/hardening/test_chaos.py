@@ -92,8 +92,12 @@ def test_a_launch_that_fails_stops_its_nodes_without_tracebacks(graph):
 
 # -- the headset image while nodes die (issue 16 part B) ------------------------------------------
 
+# The README's figures, asserted with the margin a loaded 2-core machine needs (sim, scene, spv,
+# bridge and this probe share the two cores with other test sessions):
 STALE_TARGET_S = 0.3       # stale inputs detected and shown within this (raspv_spv.staleness)
-LOAD_MARGIN_S = 1.0        # a loaded 2-core CI machine: scheduling of sim, scene, spv and this probe
+STALE_MARGIN_S = 0.2       # scheduling under load: 235–282 ms measured in 6 runs under load (README)
+RESTART_TARGET_S = 1.5     # kill -9 of spv → the warm spare's first frame
+RESTART_MARGIN_S = 1.0     # DDS discovery of the promoted spare under load: 0.2–1.8 s measured (README)
 HEAD_HZ, HEAD_YAW_DEG, HEAD_PITCH_DEG, HEAD_SWEEP_HZ = 30.0, 25.0, 20.0, 0.4
 
 
@@ -135,7 +139,8 @@ def longest_unchanged_s(images, start: float, end: float) -> float:
 def test_the_headset_image_never_freezes_while_scene_and_spv_are_killed(graph, probe):
     """sim + scene + spv + bridge with `restart: true`: scene killed → the depth fallback on live
     camera frames within the stale bound, the scene mode back after its restart; spv killed → its
-    warm spare's frames. Figures printed (run with -s); bounds generous for a loaded CI machine."""
+    warm spare's frames. Figures printed (run with -s); the README's bounds asserted, each with the
+    margin a loaded 2-core machine needs (stated above)."""
     mode = "chess_wall_obstacles"
     g = graph({"launch": {"nodes": [{"kind": "sim"}, {"kind": "scene", "restart": True, "spare": False},
                                     {"kind": "spv", "restart": True}, {"kind": "bridge"}],
@@ -168,8 +173,8 @@ def test_the_headset_image_never_freezes_while_scene_and_spv_are_killed(graph, p
               f"{t_back - t_kill:.2f} s, longest unchanged image {frozen * 1e3:.0f} ms")
         print("\n".join(re.findall(r"^\[spv\].*stale input.*$", g.output, re.M)))
         assert len(depth_sources) > 1                         # live camera frames, not the last scene frame
-        assert shown_after < STALE_TARGET_S + LOAD_MARGIN_S
-        assert frozen < STALE_TARGET_S + LOAD_MARGIN_S
+        assert shown_after < STALE_TARGET_S + STALE_MARGIN_S
+        assert frozen < STALE_TARGET_S + STALE_MARGIN_S
 
         # spv killed: its warm spare publishes frames, in the scene mode
         _wait_lines(g, r"^\[spv\] startup: imports done", 2)
@@ -185,7 +190,7 @@ def test_the_headset_image_never_freezes_while_scene_and_spv_are_killed(graph, p
         # until the restarted process's subscriptions are matched (DDS discovery) it shows a dark image
         print(f"spv killed: first frame of the restarted spv after {gap:.2f} s (target 1.5 s), first camera "
               f"content after {content:.2f} s, scene mode after {_stamp(again.header.stamp) - t_kill:.2f} s")
-        assert gap < 10.0
+        assert gap < RESTART_TARGET_S + RESTART_MARGIN_S
     finally:
         head.stop.set()
         head.join(timeout=5)

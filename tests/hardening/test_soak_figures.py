@@ -1,11 +1,11 @@
-"""The soak bench's figures (raspv_bringup/soak.py): memory growth fitted per process, restarts
+"""The soak bench's figures (raspv_bench/soak_figures.py): memory growth fitted per process, restarts
 splitting the series, and display frames missing between stamps."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from raspv_bringup.soak import RssSeries, display_gaps
+from raspv_bench.soak_figures import RssSeries, display_gaps
 
 
 def test_growth_is_fitted_in_mb_per_hour_after_the_warm_up():

@@ -179,7 +179,8 @@ def test_port_in_use_is_a_one_line_error(graph):
                    "bridge": {"ros__parameters": {"port": port, "tcp_port": -1}}})
         m = g.wait_for_output(r"\[bridge\] configuration error: (.*)", timeout=60)
         assert f"cannot listen on 127.0.0.1:{port}" in m.group(1) and "in use" in m.group(1)
-        assert "Traceback" not in g.output
+        g.proc.wait(timeout=30)
+        assert g.stop() == 1 and "Traceback" not in g.output
 
 
 def test_phosphenes_from_the_camera_reach_a_headset_client(graph):

@@ -19,6 +19,7 @@ import pytest
 
 from raspv_hmd import protocol as P
 from raspv_hmd.test_pattern import PhospheneTestPattern
+from raspv_bringup.testing import dev_requirement
 
 CHROMIUM = "/usr/bin/chromium"
 pytestmark = [
@@ -26,7 +27,7 @@ pytestmark = [
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
                        reason=f"{CHROMIUM} is not installed (Debian: apt-get install -y chromium)"),
 ]
-sync_api = pytest.importorskip("playwright.sync_api", reason="the playwright Python package is not installed")
+sync_api = dev_requirement("playwright.sync_api")
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]

@@ -15,6 +15,7 @@ from nav_msgs.msg import Odometry
 
 from raspv_common import topics
 from raspv_common.conversions import pose_to_matrix
+from raspv_bringup.testing import dev_requirement
 
 CHROMIUM = "/usr/bin/chromium"
 pytestmark = [
@@ -22,7 +23,7 @@ pytestmark = [
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
                        reason=f"{CHROMIUM} is not installed (Debian: apt-get install -y chromium)"),
 ]
-sync_api = pytest.importorskip("playwright.sync_api", reason="the playwright Python package is not installed")
+sync_api = dev_requirement("playwright.sync_api")
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]

@@ -1,4 +1,4 @@
-"""The motion-to-phosphene probe of `raspv bench e2e` (raspv_hmd.motion_latency): the step schedule,
+"""The motion-to-phosphene probe of `raspv bench e2e` (raspv_bench.motion_latency): the step schedule,
 the onset / 50 %-of-change criteria, and a real client stepping its head against a headset server."""
 import asyncio
 import math
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from raspv_hmd import protocol as P
-from raspv_hmd.motion_latency import StepSchedule, analyse_steps, record_steps, step_send_times
+from raspv_bench.motion_latency import StepSchedule, analyse_steps, record_steps, step_send_times
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig
 
 

@@ -46,8 +46,17 @@ def test_planner_publishes_a_path_to_the_goal_around_obstacles(graph, probe, tmp
         inside = ((dense[:, 0] > box.lo[0] - 0.3) & (dense[:, 0] < box.hi[0] + 0.3)
                   & (dense[:, 1] > box.lo[1] - 0.3) & (dense[:, 1] < box.hi[1] + 0.3))
         assert not inside.any()
+    # the walker stands at the start facing along the room: the hint sets off along the path,
+    # turning towards it (the velocity window allows v ≥ 0 only, so v > 0 is what says "go")
     hint = probe.wait_for_message("/nav/cmd_vel_hint", Twist)
-    assert hint.linear.x >= 0.0
+    forward = room.pose_at(0.0)[:2, 2] / np.linalg.norm(room.pose_at(0.0)[:2, 2])   # the camera's z axis
+    along = np.cumsum(np.r_[0.0, np.linalg.norm(np.diff(dense, axis=0), axis=1)])
+    ahead = dense[np.searchsorted(along, 1.0)] - pts[0]                               # 1 m along the path
+    bearing = np.degrees(np.arctan2(forward[0] * ahead[1] - forward[1] * ahead[0], forward @ ahead))
+    print(f"hint v {hint.linear.x:.3f} m/s, w {hint.angular.z:.3f} rad/s; the path 1 m ahead at {bearing:.1f}°")
+    assert hint.linear.x > 0.0
+    if abs(bearing) > 5.0:
+        assert np.sign(hint.angular.z) == np.sign(bearing)
     # inflated costs, not the raw map: obstacle cells, the inscribed ring and graded costs
     static = np.array(costmap.data, np.int8)
     assert {100, 99}.issubset(set(static.tolist())) and ((static > 0) & (static < 99)).any()

@@ -9,6 +9,7 @@ import pytest
 
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.rgbd_files import read_color, read_depth_scaled, read_nyu_disparity
+from raspv_bringup.testing import dev_requirement
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "rgbd"
 KINECT_DEFAULT = CameraIntrinsics(640, 480, 525.0, 525.0, 319.5, 239.5)
@@ -91,6 +92,6 @@ def write_model(tmp: Path, kind: str = "onnx", size=(96, 64), **spec) -> Path:
 
 @pytest.fixture
 def write_user_model():
-    pytest.importorskip("torch", reason="torch (dev requirement) is missing")
-    pytest.importorskip("onnx", reason="onnx (dev requirement, needed by torch.onnx.export) is missing")
+    dev_requirement("torch")
+    dev_requirement("onnx")
     return write_model

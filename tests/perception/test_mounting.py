@@ -46,7 +46,7 @@ def test_scene_node_parameters_choose_the_mounting():
         config_from_params({**defaults, "first_floor_min_height": 0.5})
 
 
-@pytest.mark.parametrize("mounting", ["hand", "robot"])
+@pytest.mark.parametrize("mounting", ["chest", "hand", "robot"])     # 0.72 m, 46°: inside chest's 0.7–1.6 m, ≤ 50°
 def test_real_frames_from_072_m_find_the_floor_with_a_low_mounting(kinect_frames, mounting):
     perception = ScenePerception(SceneConfig().with_mounting(mounting))
     K = kinect_frames[0][2]
@@ -97,6 +97,11 @@ def test_rendered_low_cameras_need_a_low_mounting_or_an_imu(low_views):
             assert s.floor_found and s.camera_height == pytest.approx(height, abs=0.03), (mounting, height)
         head = ScenePerception(SceneConfig().with_mounting("head")).process(f.depth, f.intrinsics).structure
         assert not head.floor_found, height
+        # a chest harness (0.7–1.6 m): the floor from 0.7 and 1.0 m, not from 0.4 m
+        chest = ScenePerception(SceneConfig().with_mounting("chest")).process(f.depth, f.intrinsics).structure
+        assert chest.floor_found == (height >= MOUNTINGS["chest"].min_height - 0.02), height
+        if chest.floor_found:
+            assert chest.camera_height == pytest.approx(height, abs=0.03)
         # gravity from an IMU (here the true one, tilted 5° as an accelerometer's error could) finds
         # the floor at any height, whatever the mounting says
         tilt = np.array([[1, 0, 0], [0, math.cos(0.087), -math.sin(0.087)], [0, math.sin(0.087), math.cos(0.087)]])

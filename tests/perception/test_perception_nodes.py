@@ -52,7 +52,7 @@ def test_scene_node_refuses_impossible_settings_in_one_line(graph):
                "scene": {"ros__parameters": {"min_depth": 3.0, "max_depth": 2.0}}})
     g.wait_for_output(r"configuration error: min_depth \(3.0\) must be below max_depth \(2.0\)")
     g.proc.wait(timeout=30)
-    assert "Traceback" not in g.output
+    assert g.stop() == 1 and "Traceback" not in g.output
 
 
 def test_odometry_node_anchors_to_the_floor_and_follows_the_camera(graph, probe):

@@ -14,6 +14,7 @@ from raspv_perception.person_fusion import FusionConfig, fuse_person
 from raspv_perception.scene_perception import ScenePerception
 from raspv_perception.segmentation import Segmenter
 from raspv_perception.segmentation_models import PersonModel
+from raspv_bringup.testing import dev_requirement
 
 TFLITE = Path(__file__).resolve().parents[1] / "data" / "models" / "selfie_segmentation.tflite"
 WORLD = Path(__file__).resolve().parents[1] / "data" / "worlds" / "desk_and_person.yaml"
@@ -33,7 +34,7 @@ def test_onnx_model_matches_the_original_tflite(model, tum_frame):
     """Same 256x256 input tensor through both runtimes. Tolerance 1e-4 of a probability: the
     runtimes sum convolutions in different orders (float32), which moves outputs by ~1e-7; the
     conversion replaced one custom layer, and an error there would show as ~1e-1."""
-    litert = pytest.importorskip("ai_edge_litert.interpreter", reason="ai-edge-litert (dev requirement) is missing")
+    litert = dev_requirement("ai_edge_litert.interpreter", "ai-edge-litert")
     interp = litert.Interpreter(model_path=str(TFLITE), num_threads=1)
     interp.allocate_tensors()
     inp, out = interp.get_input_details()[0], interp.get_output_details()[0]

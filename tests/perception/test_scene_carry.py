@@ -41,6 +41,12 @@ def carried_pair(old, new):
     return s, carry_labels(r0.labels, d1, K, new_from_old, s.floor_plane)
 
 
+def not_moved(old, new):
+    """A broken carry: the old labels through the new depth's checks with no motion."""
+    (_, _, r0), (_, d1, _) = old, new
+    return carry_labels(r0.labels, d1, K, np.eye(4), structure_seen_from(r0.structure, np.eye(4)).floor_plane)
+
+
 def test_a_walk_carried_one_frame_matches_the_next_frames_own_result(walk):
     ours, same_pixels = [], []
     for old, new in zip(walk[:-1:3], walk[1::3]):
@@ -53,21 +59,29 @@ def test_a_walk_carried_one_frame_matches_the_next_frames_own_result(walk):
         np.testing.assert_allclose(s.floor_plane, own.structure.floor_plane, atol=0.005)
         np.testing.assert_allclose(s.camera_to_floor, own.structure.camera_to_floor, atol=0.005)
         assert s.camera_pitch_deg == pytest.approx(own.structure.camera_pitch_deg, abs=0.3)
-    # measured: 99 % on average, 98 % at worst; the old labels as they were: 98.5 %
+    # measured: 99.1 % on average, 97.6 % at worst; the old labels as they were: 99.0 %. One frame
+    # (2 cm) apart the labels barely move, so this checks the carried structure and that carrying
+    # loses nothing; the five-frame test below tells carrying from not carrying.
     assert np.mean(ours) >= 0.97 and min(ours) >= 0.95
-    assert np.mean(ours) > np.mean(same_pixels)
+    assert np.mean(ours) >= np.mean(same_pixels)
 
 
 def test_a_walk_carried_five_frames_still_matches(walk):
     """Carried 167 ms (five frames of 30 Hz, 6.7 cm and 2.4° of walk): what the display shows
     when scene perception falls behind."""
-    ours, same_pixels = [], []
+    ours, same_pixels, unmoved = [], [], []
     for old, new in zip(walk[:-5:5], walk[5::5]):
         _, labels = carried_pair(old, new)
         truth = new[2].labels[::STRIDE, ::STRIDE]
         ours.append(agreement(labels, truth))
         same_pixels.append(agreement(old[2].labels[::STRIDE, ::STRIDE], truth))
-    assert np.mean(ours) >= 0.96 and np.mean(ours) > np.mean(same_pixels) + 0.01
+        unmoved.append(agreement(not_moved(old, new), truth))
+    # measured: 98.4 % carried, 95.8 % the old labels as they were, 96.3 % carried without the
+    # motion (a broken carry: the depth checks alone). Errors: 1.6 % vs 4.2 % and 3.7 %. Carrying
+    # must remove at least 40 % of the errors of either; a carry that ignores the motion removes 12 %.
+    errors = 1 - np.mean(ours)
+    assert np.mean(ours) >= 0.96
+    assert errors <= 0.6 * (1 - np.mean(same_pixels)) and errors <= 0.6 * (1 - np.mean(unmoved))
 
 
 def test_floor_frame_contents_stay_put_in_the_world(walk):
@@ -134,6 +148,12 @@ def test_real_kinect_frames_carried_by_odometry_match_their_own_result(kinect_fr
     carried = carry_labels(results[0].labels, depth1, K_, new_from_old, plane)
     truth = results[1].labels[::STRIDE, ::STRIDE]
     ours, same = agreement(carried, truth), agreement(results[0].labels[::STRIDE, ::STRIDE], truth)
-    print(f"kinect: carried {ours:.3f}, same pixels {same:.3f}, motion {np.linalg.norm(new_from_old[:3, 3]):.3f} m")
-    # measured: 97.1 %; the old labels as they were: 95.4 %
-    assert ours >= 0.95 and ours > same
+    s0 = structure_seen_from(results[0].structure, np.eye(4))
+    unmoved = agreement(carry_labels(results[0].labels, depth1, K_, np.eye(4),
+                                     s0.floor_plane if s0.floor_found else None), truth)
+    print(f"kinect: carried {ours:.3f}, same pixels {same:.3f}, carried without the motion {unmoved:.3f}, "
+          f"motion {np.linalg.norm(new_from_old[:3, 3]):.3f} m")
+    # measured: 97.1 %; the old labels as they were 95.4 %, carried without the motion 95.5 % (errors
+    # 2.9 % vs 4.6 % and 4.5 %): at least a fifth of the errors removed, which a broken carry does not
+    assert ours >= 0.95
+    assert 1 - ours <= 0.8 * (1 - same) and 1 - ours <= 0.8 * (1 - unmoved)

@@ -10,8 +10,9 @@ import yaml
 
 from raspv_perception.model_spec import ModelError
 from raspv_perception.segmentation_models import OnnxModel, TorchScriptModel, load_model
+from raspv_bringup.testing import dev_requirement
 
-torch = pytest.importorskip("torch", reason="torch (dev requirement) is missing")
+torch = dev_requirement("torch")
 
 
 @pytest.fixture

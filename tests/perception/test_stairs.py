@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from raspv_perception.bench import _apartment_frames
+from raspv_bench.scene import _apartment_frames
 from raspv_perception.scene_perception import ScenePerception
 from raspv_perception.scene_structure import SceneStructure
 from raspv_perception.stair_model import StairDirection

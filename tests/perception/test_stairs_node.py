@@ -42,4 +42,4 @@ def test_stairs_node_refuses_impossible_settings_in_one_line(graph):
                "stairs": {"ros__parameters": {"h_min": 0.3, "h_max": 0.2}}})
     g.wait_for_output(r"configuration error: h_min \(0.3\) must be below h_max \(0.2\)")
     g.proc.wait(timeout=30)
-    assert "Traceback" not in g.output
+    assert g.stop() == 1 and "Traceback" not in g.output

@@ -8,6 +8,7 @@ import pytest
 
 from raspv_spv.config import spv_config
 from raspv_spv.device import DeviceError, load_device, preset_names
+from raspv_bringup.testing import dev_requirement
 from raspv_spv.implant_layout import (LayoutError, LayoutSpec, PlacedImplant, layout_names, load_layout,
                                       neuralink_layout)
 from raspv_spv.simulator import check_config
@@ -32,7 +33,7 @@ def test_every_shipped_layout_is_a_real_device_with_its_published_geometry():
 
 @pytest.mark.parametrize("name", sorted(P2P_CLASSES))
 def test_shipped_layouts_equal_pulse2percept(name):
-    implants = pytest.importorskip("pulse2percept.implants")
+    implants = dev_requirement("pulse2percept.implants")
     kind, cls = P2P_CLASSES[name]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -46,7 +47,7 @@ def test_shipped_layouts_equal_pulse2percept(name):
 
 
 def test_placement_is_pulse2percepts_rotation_then_translation():
-    retina = pytest.importorskip("pulse2percept.implants.retina")
+    retina = dev_requirement("pulse2percept.implants.retina")
     from pulse2percept.models.retina import ScoreboardModel
 
     with warnings.catch_warnings():
@@ -61,7 +62,7 @@ def test_placement_is_pulse2percepts_rotation_then_translation():
 
 
 def test_neuralink_threads_are_where_pulse2percepts_factory_puts_them():
-    cortex = pytest.importorskip("pulse2percept.implants.cortex")
+    cortex = dev_requirement("pulse2percept.implants.cortex")
     from pulse2percept.topography.cortex import Polimeni2006Map
 
     with warnings.catch_warnings():

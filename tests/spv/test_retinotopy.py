@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from raspv_bringup.testing import dev_requirement
 from raspv_spv.retinotopy import (DYNAPHOS, POLIMENI2006, WedgeDipoleMap, image_to_visual_field, visual_field_to_image,
                                   watson_dva_to_ret, watson_ret_to_dva, watson_ret_to_dva_exact, watson_um_per_deg)
 
@@ -27,7 +28,7 @@ def test_image_and_visual_field_round_trip_and_eccentricity_is_the_ray_angle():
 
 
 def test_watson_2014_matches_pulse2percept_and_inverts_exactly():
-    retina = pytest.importorskip("pulse2percept.topography.retina")
+    retina = dev_requirement("pulse2percept.topography.retina")
     w = retina.Watson2014Map()
     assert np.allclose(watson_dva_to_ret(X, Y), w.dva_to_ret(X, Y), atol=1e-6)           # eq. A5, µm
     assert np.allclose(watson_ret_to_dva(X * 280, Y * 280), w.ret_to_dva(X * 280, Y * 280), atol=1e-9)   # eq. A6
@@ -45,7 +46,7 @@ def test_watson_2014_matches_pulse2percept_and_inverts_exactly():
 
 
 def test_polimeni_2006_map_matches_pulse2percept_both_ways():
-    cortex = pytest.importorskip("pulse2percept.topography.cortex")
+    cortex = dev_requirement("pulse2percept.topography.cortex")
     m = cortex.Polimeni2006Map()
     theirs = np.array(m.dva_to_v1(X.astype(np.float32), Y.astype(np.float32)), dtype=float)
     ours = np.array(POLIMENI2006.dva_to_v1(X, Y))
@@ -62,7 +63,7 @@ def test_polimeni_2006_map_matches_pulse2percept_both_ways():
 
 
 def test_dynaphos_cortex_model_is_the_right_hemisphere_in_mm():
-    pytest.importorskip("torch")
+    dev_requirement("torch")
     from dynaphos.cortex_models import (get_cortical_magnification, get_mapping_from_cortex_to_visual_field,
                                         get_mapping_from_visual_field_to_cortex)
     from dynaphos.utils import Map

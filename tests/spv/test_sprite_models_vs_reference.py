@@ -29,7 +29,9 @@ import cv2
 import numpy as np
 import pytest
 
-p2p = pytest.importorskip("pulse2percept")
+from raspv_bringup.testing import dev_requirement
+
+p2p = dev_requirement("pulse2percept")
 from pulse2percept.implants.cortex import Orion  # noqa: E402
 from pulse2percept.implants.retina import AlphaIMS, ArgusII  # noqa: E402
 from pulse2percept.models.cortex import ScoreboardModel as CorticalScoreboard  # noqa: E402
@@ -168,12 +170,12 @@ def test_cortical_scoreboard_matches_pulse2percept_on_orion():
 
 
 def test_dynaphos_sizes_and_positions_match_dynaphos():
-    torch = pytest.importorskip("torch")
+    torch = dev_requirement("torch")
     from dynaphos.cortex_models import get_visual_field_coordinates_from_cortex
     from dynaphos.simulator import GaussianSimulator
     from dynaphos.utils import Map
 
-    from raspv_spv.bench import DYNAPHOS_PARAMS
+    from raspv_bench.spv import DYNAPHOS_PARAMS
 
     m = our_map("orion", 20000, -5000, cortical_map="dynaphos")
     # positions: dynaphos' own cortex -> visual field mapping of the same (right-hemisphere) electrodes

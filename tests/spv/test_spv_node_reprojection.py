@@ -72,7 +72,8 @@ def test_display_turns_the_last_frame_with_the_head_and_waits_the_device_latency
     graph({"launch": {"nodes": [{"kind": "spv"}]},
            # one camera frame held for seconds on purpose: not a camera that stopped
            "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
-                                       "rate": 25.0, "stale_inputs": False}}})
+                                       "rate": 25.0, "stale_inputs": False,
+                                       "camera_source": "sim"}}})
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
     src = Source(probe)
     src.head.publish(head_msg(probe, 0.0))
@@ -128,7 +129,8 @@ def test_with_the_temporal_model_off_a_head_turn_is_shown_at_once_not_at_the_nex
     # a 1 Hz display: waiting for the tick would take up to a second
     graph({"launch": {"nodes": [{"kind": "spv"}]},
            "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
-                                       "rate": 1.0, "stale_inputs": False, "display_on_input": follow}}})
+                                       "rate": 1.0, "stale_inputs": False, "display_on_input": follow,
+                                       "camera_source": "sim"}}})
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
     src = Source(probe)
     src.head.publish(head_msg(probe, 0.0))

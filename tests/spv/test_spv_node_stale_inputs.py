@@ -22,6 +22,8 @@ pytestmark = pytest.mark.integration
 
 K = CameraIntrinsics.from_hfov(160, 120, 70.0)
 PERIOD_S = 0.05
+STALE_TARGET_S = 0.3     # README: a stale input is shown within 300 ms of its last message
+STALE_MARGIN_S = 0.2     # scheduling on a loaded 2-core machine (probe and spv threads scheduled late)
 
 
 class Source(threading.Thread):
@@ -115,6 +117,9 @@ def test_stale_scene_falls_back_to_depth_stale_camera_shows_the_no_data_ring_and
                     and stamp_to_seconds(f.source_stamp) > t_back)
         print(f"stale scene shown after {detected * 1e3:.0f} ms, stale camera after {no_data * 1e3:.0f} ms "
               "(from the last message; target 300 ms)")
+        # the README's 300 ms, with the margin a loaded 2-core machine needs (the probe's publisher
+        # thread and the spv node's display thread each scheduled late by up to ~0.1 s)
+        assert detected < STALE_TARGET_S + STALE_MARGIN_S and no_data < STALE_TARGET_S + STALE_MARGIN_S
     finally:
         src.stop.set()
         src.join(timeout=5)

@@ -10,7 +10,9 @@ then ~1 % longer or shorter, which β = 3.43 turns into a few % of brightness: c
 import numpy as np
 import pytest
 
-pytest.importorskip("pulse2percept")
+from raspv_bringup.testing import dev_requirement
+
+dev_requirement("pulse2percept")
 from pulse2percept.models.retina import Horsager2009Temporal, Nanduri2012Temporal  # noqa: E402
 from pulse2percept.stimuli import BiphasicPulseTrain, Stimulus  # noqa: E402
 

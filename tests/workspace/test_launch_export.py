@@ -80,7 +80,8 @@ spv:
     cam, spv = launch_nodes(out.read_text())
     assert cam["respawn"] is True and cam["respawn_delay"] == 0.0 and spv["respawn"] is False
     assert cam["additional_env"]["OMP_NUM_THREADS"] == "2" and cam["additional_env"]["RASPV_X"] == "1"
-    assert spv["parameters"] == [{"mode": "edges", "overlays": ["path"]}]
+    # camera_source: set by the launcher from the graph's source (a synthetic camera: on nobody's head)
+    assert spv["parameters"] == [{"camera_source": "unknown", "mode": "edges", "overlays": ["path"]}]
 
 
 def test_bad_graph_is_one_line(tmp_path):

@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from raspv_learn.bench_learned import office_frames  # noqa: E402
+from raspv_bench.learned import office_frames  # noqa: E402
 from raspv_learn.dataset import DataRecipe, WorldRenderer  # noqa: E402
 from raspv_spv.config import spv_config  # noqa: E402
 from raspv_spv.simulator import PhospheneSimulator  # noqa: E402

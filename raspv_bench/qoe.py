@@ -276,7 +276,7 @@ def _png_bytes(probe, count: int = 25) -> float | None:
 def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
     """Head-yaw steps from a step client (the browser hands it control and stays open), with
     the temporal model off as in ``raspv bench e2e``."""
-    from raspv_hmd.motion_latency import analyse_steps
+    from raspv_bench.motion_latency import analyse_steps
 
     url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=5).group(1)
     subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "param", "set", "spv", "temporal", "false"],
@@ -284,7 +284,7 @@ def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
     page.keyboard.press("c")                                     # the page gives control up
     page.wait_for_function("() => window.raspvClient.role === 'watch'", timeout=10_000)
     out = workdir / "steps.npz"
-    done = subprocess.run([sys.executable, "-m", "raspv_hmd.motion_latency", url, str(out), "--steps", str(steps)],
+    done = subprocess.run([sys.executable, "-m", "raspv_bench.motion_latency", url, str(out), "--steps", str(steps)],
                           capture_output=True, text=True, timeout=60 + steps * 3)
     page.keyboard.press("c")
     if done.returncode != 0:

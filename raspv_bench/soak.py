@@ -3,7 +3,7 @@
 The graph (``demo`` by default) runs under the launcher's supervisor in this process, on a
 private ROS domain. Every ``--interval`` seconds each node's resident memory is sampled
 (``psutil``; a warm spare is its own row); at the end each node's growth is a straight-line fit
-after a warm-up (:mod:`raspv_bringup.soak`), in MB/hour with its standard error. Display frames:
+after a warm-up (:mod:`raspv_bench.soak_figures`), in MB/hour with its standard error. Display frames:
 the spv node's own count of late ticks (its log), and the gaps between ``/spv/frame`` stamps
 seen by a subscriber here. Target (issue 16): growth ≤ 1 MB/hour per node over 30 minutes.
 Figures under load are noisy; a short soak's slope has a large standard error.
@@ -23,6 +23,10 @@ from pathlib import Path
 GROWTH_TARGET_MB_H = 1.0
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"minutes": 0.25, "interval": 2.0, "warmup": 4.0}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--minutes", type=float, default=5.0, help="how long to run (default 5)")
     parser.add_argument("--graph", default="demo", help="graph file or name in config/ (default demo)")
@@ -38,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     import psutil
 
     from raspv_bringup.graph import GraphError, load_graph, resolve_graph_path
-    from raspv_bringup.soak import RssSeries, display_gaps, proc_memory
+    from raspv_bench.soak_figures import RssSeries, display_gaps, proc_memory
     from raspv_bringup.supervisor import Supervisor
     from raspv_bringup.testing import Probe, claim_private_domain
 

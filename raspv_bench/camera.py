@@ -33,6 +33,10 @@ E2E_TARGET_MS = 40.0
 BASELINE_M = (0.025, 0.0, 0.0)
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"frames": 30, "seconds": 3.0, "no_peer": True}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=150, help="frames in the recordings (default 150, 5 s at 30 Hz)")
     parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the recordings (default 30)")

@@ -26,6 +26,10 @@ DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rgbd"
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "people.yaml"
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"repeat": 2, "seconds": 5.0}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeat", type=int, default=20, help="timed runs per frame (default 20)")
     parser.add_argument("--seconds", type=float, default=30.0, help="how long the people graph runs (default 30)")

@@ -19,6 +19,10 @@ TARGET_MS = 40.0
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rgbd"
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"frames": 6, "repeat": 1}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=60, help="frames of the apartment and synthetic walks (default 60)")
     parser.add_argument("--repeat", type=int, default=10, help="timed runs per real frame (default 10)")

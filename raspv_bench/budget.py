@@ -25,6 +25,10 @@ CASES = [
 ]
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"frames": 5}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=40, help="display frames timed per configuration (default 40)")
 

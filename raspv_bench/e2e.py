@@ -6,7 +6,7 @@ sampling and re-running the mode on the last frame) for the default preset on a 
 Part 2 starts the demo graph (or ``--graph``) on a private ROS domain for each configuration
 (temporal model off and on by default), connects a WebSocket client through the bridge that
 takes control, holds still and steps the head yaw by ``--amplitude`` degrees
-(:mod:`raspv_hmd.motion_latency`), and prints onset, 50 %-of-change and half-way-to-the-new-view
+(:mod:`raspv_bench.motion_latency`), and prints onset, 50 %-of-change and half-way-to-the-new-view
 latency at the client (p50/p95/max), the frames per second received, the spv node's dropped display frames, each
 node's CPU load, and the breakdown by stage from the stamps the messages carry (head message →
 ``/head/orientation`` → camera frame with the new view → scene → phosphene frame → client). With
@@ -33,6 +33,10 @@ import numpy as np
 
 ONSET_TARGET_MS = 25.0
 HALF_TARGET_MS = 45.0
+
+
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"steps": 3, "hold": 1.0, "temporal": "off", "repeat": 1}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -216,7 +220,7 @@ def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph
     levels before → after, switched in one display frame through the look-up table offline,
     with the same criteria as at the client."""
     from raspv_bringup.graph import load_graph
-    from raspv_hmd.motion_latency import analyse_steps, reduce_frame
+    from raspv_bench.motion_latency import analyse_steps, reduce_frame
     from raspv_spv.config import config_from_node_params
     from raspv_spv.simulator import PhospheneSimulator
     from raspv_spv.spv_params import PARAMS
@@ -252,7 +256,7 @@ def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph
 def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) -> list[str]:
     from raspv_bringup.testing import Probe, RunningGraph
     from raspv_common.thread_priority import raise_thread_priority
-    from raspv_hmd.motion_latency import analyse_steps
+    from raspv_bench.motion_latency import analyse_steps
 
     print(f"\n{label}  [{' '.join(overrides)}]")
     workdir = Path(tempfile.mkdtemp(prefix="raspv-bench-e2e-"))
@@ -271,7 +275,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
         cpu0, ticks0 = g.cpu_by_kind(), g.machine_ticks()
         t0 = time.monotonic()
         out = workdir / "steps.npz"
-        cmd = [sys.executable, "-m", "raspv_hmd.motion_latency", url, str(out), "--steps", str(args.steps),
+        cmd = [sys.executable, "-m", "raspv_bench.motion_latency", url, str(out), "--steps", str(args.steps),
                "--amplitude", str(args.amplitude), "--hold", str(args.hold)]
         duration = 2.0 + args.steps * (args.hold + 0.1) + 30
         # the step client stands in for the headset, which has a processor of its own: here it

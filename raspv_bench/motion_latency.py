@@ -21,7 +21,7 @@ Steps whose views hardly differ (less than :data:`MIN_CHANGE` grey levels or the
 not counted. Times are in the server's clock (offset NTP-style from ping/pong, as the
 reference client does), so they compare with the stamps the graph carries.
 
-Run as a process: ``python -m raspv_hmd.motion_latency URL OUT.npz [--steps 20 ...]`` (what
+Run as a process: ``python -m raspv_bench.motion_latency URL OUT.npz [--steps 20 ...]`` (what
 ``raspv bench e2e`` does); :func:`analyse_steps` reads the result.
 """
 from __future__ import annotations

@@ -114,7 +114,7 @@ def part_dynaphos(args, ours: dict[str, float]) -> None:
     except ImportError as exc:
         print(f"Part 2 - dynaphos not available ({exc}); pip install dynaphos to compare")
         return
-    from raspv_spv.bench import DYNAPHOS_PARAMS
+    from raspv_bench.spv import DYNAPHOS_PARAMS
     from raspv_spv.config import spv_config
     from raspv_spv.phosphene_map import PhospheneMap
 

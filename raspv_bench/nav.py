@@ -27,6 +27,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"repeats": 1, "seconds": 5.0}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed repeats of each replan (default 5)")
     parser.add_argument("--seconds", type=float, default=30.0, help="measurement time of part 2 [s] (default 30)")

@@ -25,6 +25,10 @@ from pathlib import Path
 STAGES = ("interpreter ready", "imports done", "rclpy initialised", "node built")
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"repeat": 1, "nodes": "spv"}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeat", type=int, default=3, help="kills per node and mode (default 3)")
     parser.add_argument("--nodes", default="scene,spv", help="nodes to kill, comma-separated (default scene,spv)")

@@ -2,11 +2,13 @@
 
 Part 1 times the whole per-frame path of :class:`~raspv_spv.simulator.PhospheneSimulator`
 (mode → levels, temporal look-up, render) for a device preset on a real RGB-D frame that moves
-every frame, and reports the renderer's memory. Part 2 compares, at the same phosphene count
-and output size, our levels → image step with pulse2percept 0.11 ``ScoreboardModel`` on the
-AlphaIMS implant (1500 electrodes), and Part 3 with dynaphos' ``GaussianSimulator`` (CPU
-torch), given the very same phosphene positions. Parts 4 and 5 time the literature sprite
-models (axon map against pulse2percept's ``AxonMapModel``; :mod:`raspv_spv.bench_sprite_models`).
+every frame, and reports the renderer's memory. Part 2 compares like for like our levels →
+image step with pulse2percept 0.11 ``ScoreboardModel``: the Alpha-IMS implant's 1500 electrodes
+(our ``alpha_ims_implant`` preset: the same electrodes, scoreboard sprites, the same rho and
+field at the same resolution), our percept checked against theirs in the same run (correlation
+printed). Part 3 compares with dynaphos' ``GaussianSimulator`` (CPU torch), given the very same
+phosphene positions. Parts 4 and 5 time the literature sprite
+models (axon map against pulse2percept's ``AxonMapModel``; :mod:`raspv_bench.spv_sprite_models`).
 All on one thread (``OMP_NUM_THREADS=1``, ``torch.set_num_threads(1)``, ``cv2.setNumThreads(1)``).
 """
 from __future__ import annotations
@@ -54,9 +56,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dynaphos-size", type=int, default=256, help="output size of part 3, px square (default 256)")
     parser.add_argument("--peer-frames", type=int, default=3, help="frames timed per peer (default 3)")
     parser.add_argument("--no-peers", action="store_true", help="skip parts 2 and 3")
-    from raspv_spv import bench_sprite_models
+    parser.add_argument("--quick", action="store_true",
+                        help="a smoke run in seconds (the test suite's): 30 frames, small outputs, one peer frame")
+    from raspv_bench import spv_sprite_models
 
-    bench_sprite_models.add_arguments(parser)
+    spv_sprite_models.add_arguments(parser)
 
 
 def _ms(samples: list[float]) -> tuple[float, float]:
@@ -155,36 +159,58 @@ def part_pulse2percept(args) -> None:
     try:
         from pulse2percept.implants.retina import AlphaIMS
         from pulse2percept.models.retina import ScoreboardModel
+        from pulse2percept.stimuli import Stimulus
     except ImportError as exc:
         print(f"Part 2 - pulse2percept not available ({exc}); pip install pulse2percept to compare")
         return
-    # AlphaIMS's aspect (0.95): 1520 phosphenes on our lattice for its 1500 electrodes
-    width = args.p2p_size
-    height = int(round(width * 0.95)) | 1
-    sim, ours = _ours_levels_to_image("alpha_ims", width, height, args.frames)
-    implant = AlphaIMS()
+    import cv2
+
+    from raspv_spv.config import spv_config
+    from raspv_spv.retinotopy import visual_field_to_image
+    from raspv_spv.simulator import PhospheneSimulator
+
+    # like for like: the Alpha-IMS implant's own 1500 electrodes (the `alpha_ims_implant` preset,
+    # scoreboard sprites), pulse2percept's ScoreboardModel with our rho, over the same field at the
+    # same resolution; our percept checked against theirs in this run
+    size = args.p2p_size
+    sim, ours = _ours_levels_to_image("alpha_ims_implant", size, size, args.frames)
+    m = sim.map
+    rho = sim.config.sprite_spec().rho("retina", m)
     half = sim.config.device.fov_deg / 2
-    step = 2 * half / (width - 1)
-    half_y = step * (height - 1) / 2
+    step = 2 * half / (size - 1)
+    implant = AlphaIMS()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                       # its note on rho vs the electrode pitch
-        model = ScoreboardModel(implant=implant, xrange=(-half, half), yrange=(-half_y, half_y), step=step,
+        model = ScoreboardModel(implant=implant, rho=rho, xrange=(-half, half), yrange=(-half, half), step=step,
                                 verbose=False, n_threads=1)
         model.build()
+    names = list(m.implant.names)
     rng = np.random.default_rng(0)
     times = []
-    shape = None
+    amplitudes = None
     for _ in range(args.peer_frames):
-        stim = implant.prepare_stim(rng.uniform(0.0, 20.0, len(implant.electrodes)))
+        amplitudes = rng.integers(0, sim.num_levels, len(names)) / (sim.num_levels - 1)
+        stim = Stimulus(dict(zip(names, amplitudes)))
         t0 = time.perf_counter()
         percept = model.predict_percept(stim)
         times.append(time.perf_counter() - t0)
-        shape = percept.data.shape
     theirs = statistics.median(times)
-    print(f"Part 2 - AlphaIMS: ours {sim.count} phosphenes vs pulse2percept ScoreboardModel "
-          f"{len(implant.electrodes)} electrodes, output {width}x{height} (theirs {shape[1]}x{shape[0]}), one thread")
+    # the same stimulus through ours (levels = amplitude x (N_L - 1), temporal model off), sampled
+    # at their grid points
+    check = PhospheneSimulator(spv_config("alpha_ims_implant", width=size, height=size, temporal=False))
+    levels = np.round(amplitudes * (check.num_levels - 1)).astype(np.uint8)
+    image = check.render(check.brightness(levels)).astype(np.float32)
+    gx, gy = model.spatial.grid.x, model.spatial.grid.y
+    u, v = visual_field_to_image(gx, gy, m.focal_px, m.width / 2.0, m.height / 2.0)
+    mine = cv2.remap(image, (u - 0.5).astype(np.float32), (v - 0.5).astype(np.float32), cv2.INTER_LINEAR)
+    agreement = float(np.corrcoef(mine.ravel(), percept.data[..., 0].ravel())[0, 1])
+    print(f"Part 2 - Alpha-IMS implant, like for like: the same {len(names)} electrodes, scoreboard sprites, "
+          f"rho {rho:.0f} um, {2 * half:g} deg field at {size}x{size} (theirs {percept.data.shape[1]}x"
+          f"{percept.data.shape[0]}), one thread; pulse2percept 0.11 ScoreboardModel")
     print(f"  ours (temporal + render)       {1e3 * ours:9.3f} ms/frame")
     print(f"  pulse2percept predict_percept  {1e3 * theirs:9.1f} ms/frame")
+    print(f"  the same percept: correlation {agreement:.3f} between ours (8-bit image at their grid points) and theirs "
+          f"for the last stimulus")
     ratio = theirs / ours
     print(f"  ratio {ratio:,.0f}x faster (target >= 1000x: {'met' if ratio >= 1000 else 'MISSED'})")
 
@@ -226,8 +252,19 @@ def part_dynaphos(args) -> None:
     print(f"  ratio {theirs / ours:,.0f}x faster")
 
 
+def quick(args: argparse.Namespace) -> None:
+    """Small sizes and few frames: every part runs in seconds (figures not comparable to a full run)."""
+    args.frames, args.peer_frames = min(args.frames, 30), 1
+    args.size, args.p2p_size, args.dynaphos_size = min(args.size, 200), min(args.p2p_size, 81), min(args.dynaphos_size, 64)
+    args.axon_size, args.axon_p2p_size = min(args.axon_size, 160), min(args.axon_p2p_size or 41, 41)
+
+
 def run(args: argparse.Namespace) -> int:
     from raspv_spv.device import DeviceError
+
+    if args.quick:
+        quick(args)
+        print("raspv bench spv --quick: small sizes, few frames — a smoke run, not the README's figures")
 
     try:
         part_ours(args)
@@ -237,12 +274,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_peers:
         part_pulse2percept(args)
         part_dynaphos(args)
-    from raspv_spv import bench_sprite_models
+    from raspv_bench import spv_sprite_models
 
     if not args.no_axon:
-        bench_sprite_models.part_axon_map(args, _ms, _test_frames)
+        spv_sprite_models.part_axon_map(args, _ms, _test_frames)
     if args.sprite_presets:
-        bench_sprite_models.part_presets(args, _ms, _test_frames)
+        spv_sprite_models.part_presets(args, _ms, _test_frames)
     return 0
 
 

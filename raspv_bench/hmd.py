@@ -27,6 +27,10 @@ FRAME_TARGET_MS = 10.0
 HEAD_TARGET_MS = 20.0
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"size": "200x200", "seconds": 1.0}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--size", default="800x800", help="phosphene image WxH (default 800x800)")
     parser.add_argument("--rate", type=float, default=50.0, help="frames per second published (default 50)")
@@ -160,7 +164,8 @@ def ros_bench(args, frames: list[np.ndarray]) -> list[str]:
                               timeout=60)
         url = m.group(1)
         heads = probe.subscribe(topics.HEAD_ORIENTATION, QuaternionStamped)
-        pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+        # the bridge subscribes to /spv/image only while a client wants images: no subscriber yet
+        pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS)
         messages = [array_to_image(f, "mono8") for f in frames]
 
         def feed() -> None:

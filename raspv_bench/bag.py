@@ -27,6 +27,10 @@ import numpy as np
 TUM = Path(__file__).resolve().parent.parent / "tests" / "data" / "rgbd"
 
 
+# --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
+QUICK = {"seconds": 2.0, "no_extra": True}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=10.0, help="length of the test bag [s] (default 10)")
     parser.add_argument("--rate", type=float, default=30.0, help="camera rate of the test bag [Hz] (default 30)")
