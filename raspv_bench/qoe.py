@@ -30,9 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+from raspv_bringup.testing import CHROMIUM, CHROMIUM_ARGS
+
 TARGETS = {"fps": 45.0, "age_p95_ms": 60.0, "share": 99.5, "onset_p95_ms": 25.0, "shown_ms": 300.0}
 
 

@@ -33,6 +33,11 @@ _domain_lock = None
 INSTALL_STAMP = ".raspv-install-stamp"     # written by tools/install.sh into the venv it completed
 
 
+CHROMIUM = "/usr/bin/chromium"          # Debian's chromium: the browser tests and `raspv bench qoe` drive it
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
 def dev_requirement(module: str, package: str | None = None) -> Any:
     """Import ``module`` of a test dependency (``package``, requirements/dev.txt). On an
     environment ``make install`` completed (its stamp in ``sys.prefix``) a missing or broken one

@@ -22,12 +22,10 @@ import yaml
 
 from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.session import read_jsonl
-from raspv_bringup.testing import dev_requirement
+from raspv_bringup.testing import CHROMIUM, dev_requirement
+from raspv_bringup.testing import CHROMIUM_ARGS as ARGS
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
 
 def raspv(*args: str, **kw) -> subprocess.Popen:

@@ -10,14 +10,12 @@ import pytest
 
 from raspv_hmd import protocol as P
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig
-from raspv_bringup.testing import dev_requirement
+from raspv_bringup.testing import CHROMIUM, dev_requirement
+from raspv_bringup.testing import CHROMIUM_ARGS as ARGS
 
-CHROMIUM = "/usr/bin/chromium"
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"{CHROMIUM} is not installed")]
 sync_api = dev_requirement("playwright.sync_api")
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
 
 def test_protocol_messages():

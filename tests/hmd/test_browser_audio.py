@@ -14,9 +14,8 @@ import threading
 import pytest
 
 from raspv_hmd import protocol as P
-from raspv_bringup.testing import dev_requirement
+from raspv_bringup.testing import CHROMIUM, CHROMIUM_ARGS, dev_requirement
 
-CHROMIUM = "/usr/bin/chromium"
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
@@ -24,9 +23,7 @@ pytestmark = [
 ]
 sync_api = dev_requirement("playwright.sync_api")
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--autoplay-policy=no-user-gesture-required"]
+ARGS = [*CHROMIUM_ARGS, "--autoplay-policy=no-user-gesture-required"]
 
 CUES = {"frame": "base", "has_path": True, "goal_reached": False, "feasible": True, "proximity_range": 1.5,
         "waypoint": {"position": [2.0, -2.0, 0.0]},                      # ahead and to the right

@@ -19,9 +19,9 @@ import pytest
 
 from raspv_hmd import protocol as P
 from raspv_hmd.test_pattern import PhospheneTestPattern
-from raspv_bringup.testing import dev_requirement
+from raspv_bringup.testing import CHROMIUM, dev_requirement
+from raspv_bringup.testing import CHROMIUM_ARGS as ARGS
 
-CHROMIUM = "/usr/bin/chromium"
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
@@ -29,8 +29,6 @@ pytestmark = [
 ]
 sync_api = dev_requirement("playwright.sync_api")
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
 # A stand-in WebXR runtime: 'immersive-vr' is supported, and the session delivers frames every
 # 10 ms whose viewer pose turns left about XR +y by 0.01 rad per frame.

@@ -15,9 +15,9 @@ from nav_msgs.msg import Odometry
 
 from raspv_common import topics
 from raspv_common.conversions import pose_to_matrix
-from raspv_bringup.testing import dev_requirement
+from raspv_bringup.testing import CHROMIUM, dev_requirement
+from raspv_bringup.testing import CHROMIUM_ARGS as ARGS
 
-CHROMIUM = "/usr/bin/chromium"
 pytestmark = [
     pytest.mark.integration, pytest.mark.browser, pytest.mark.slow,
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
@@ -25,8 +25,6 @@ pytestmark = [
 ]
 sync_api = dev_requirement("playwright.sync_api")
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
 
 def view(page) -> np.ndarray:

@@ -21,9 +21,9 @@ from raspv_common import topics
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.qos import LATCHED_QOS
 from raspv_msgs.msg import PhospheneMap
-from raspv_bringup.testing import dev_requirement
+from raspv_bringup.testing import CHROMIUM, dev_requirement
+from raspv_bringup.testing import CHROMIUM_ARGS as ARGS
 
-CHROMIUM = "/usr/bin/chromium"
 pytestmark = [
     pytest.mark.integration, pytest.mark.browser, pytest.mark.slow,
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
@@ -31,8 +31,6 @@ pytestmark = [
 ]
 sync_api = dev_requirement("playwright.sync_api")
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 # Tolerance: the atlas travels as half floats and the page sums in a float (or half-float)
 # framebuffer, so a pixel near a rounding boundary may come out one grey level off; none more.
 MAX_DIFF, MAX_OFF_SHARE = 1, 0.02

@@ -6,19 +6,20 @@ The figures themselves depend on the machine's load and are not asserted (timing
 not belong in tests); what is asserted is that each is measured and makes sense."""
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
+from raspv_bringup.testing import CHROMIUM
+
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
-CHROMIUM = Path("/usr/bin/chromium")
 
 
-@pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium (apt-get install -y chromium)")
+@pytest.mark.skipif(not os.path.exists(CHROMIUM), reason="needs Debian's chromium (apt-get install -y chromium)")
 def test_the_quick_qoe_bench_measures_the_page_the_graph_and_a_kill():
     res = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "bench", "qoe", "--quick", "--kill", "scene"],
                          capture_output=True, text=True, timeout=600)
