@@ -11,8 +11,9 @@ fresh SDK object) and calls back with each frame and its host-time stamp:
   until it is back ("camera back" is reported), or for ``give_up_after`` seconds if that is
   set (then :meth:`run` returns ``"gave up"`` and the node exits non-zero — a graph entry with
   ``restart: true`` starts it again);
-- at the end of a recording: ``loop`` (play it again), ``hold`` (publish nothing more) or
-  ``exit``.
+- at the end of a recording: ``loop`` (play it again; the source announces ``paused`` while the
+  SDK reopens it — hundreds of ms on a loaded machine — so consumers hold its last frame
+  rather than call it stale), ``hold`` (publish nothing more) or ``exit``.
 
 A missing SDK or system library is not retried: it cannot fix itself (``"no sdk"``).
 """
@@ -63,7 +64,7 @@ class CameraRunner:
         self.on_frame = on_frame
         self.on_imu = on_imu
         self.log = log or (lambda level, msg: None)
-        self.on_state = on_state or (lambda state: None)   # "delivering" / "down" (raspv_common.liveliness)
+        self.on_state = on_state or (lambda state: None)   # "delivering" / "paused" / "down" (raspv_common.liveliness)
         self.now = now
         self.driver: CameraDriver | None = None
         self.frames = 0
@@ -112,6 +113,8 @@ class CameraRunner:
                 down_since = None
                 self.last_error = ""
                 outcome = self._stream()
+                if outcome == "end" and self.options.at_end == "loop":
+                    self.on_state("paused")         # reopening the recording: a known pause, not a stale camera
                 self._disconnect()
                 if outcome == "end":
                     if self.options.at_end == "exit":

@@ -23,12 +23,18 @@ watches their announcements. Whether a producer lives:
 Per input it reports one of the states of :mod:`raspv_spv.staleness`: ``alive`` (a producer
 lives and delivers), ``paused``, ``gone`` (its producers died, are stopped, or announced
 ``down``) or ``unknown`` (its publishers announce nothing: a foreign driver, a test probe).
+A producer whose alive publisher is in the ROS graph but whose announcement has not reached the
+consumer yet (a graph starting: the consumer's subscription still matching) counts as ``alive``:
+it is a RASPV node that started — judging its first frames by the crash detector's 0.26 s bound
+showed the no-data ring while a loaded machine started the graph. The first message of an input
+whose producers are not known yet triggers the lookup at once (not at the next :data:`REFRESH_S`).
 :mod:`raspv_spv.staleness` turns these into bounds.
 """
 from __future__ import annotations
 
 
 import json
+import threading
 import time
 
 from rclpy.duration import Duration
@@ -44,6 +50,7 @@ LEASE_S = 0.2          # a node's process asserts its liveliness within this [s]
 WATCH_LEASE_S = 0.25   # a consumer requests this (≥ the lease); a dead producer is reported ≈ this late [s]
 REFRESH_S = 0.5        # how often a consumer looks up which nodes publish its inputs [s]
 STATES_TTL_S = 0.02    # a consumer's verdicts are re-read from /proc at most this often [s]
+EAGER_REFRESH_S = 0.1  # an input from producers not known yet: looked up at most this often [s]
 DELIVERING, PAUSED, DOWN = "delivering", "paused", "down"
 # producer states per input (the same strings as raspv_spv.staleness: ALIVE, PAUSED, GONE, UNKNOWN)
 ALIVE, GONE, UNKNOWN = "alive", "gone", "unknown"
@@ -80,11 +87,13 @@ class AliveAnnouncement:
 class _Producer:
     """What a consumer knows of one producing node: its announcement and its DDS liveliness."""
 
-    __slots__ = ("alive", "ever_alive", "state", "pid", "started", "local", "sub")
+    __slots__ = ("alive", "ever_alive", "announces", "heard", "state", "pid", "started", "local", "sub")
 
     def __init__(self) -> None:
         self.alive = 0                 # DDS: alive writers on its alive topic
         self.ever_alive = False
+        self.announces = False         # the ROS graph shows its alive publisher (a RASPV node)
+        self.heard = False             # its announcement arrived
         self.state = DELIVERING
         self.pid = self.started = 0
         self.local = False             # the same pid namespace: /proc tells whether it lives
@@ -94,9 +103,10 @@ class _Producer:
         try:
             info = json.loads(data)
         except ValueError:
-            info = {"state": data}     # a bare state word
+            info = {"state": data} if data in (DELIVERING, PAUSED, DOWN) else None   # a bare state word
         if not isinstance(info, dict):
-            return
+            return                     # garbage: as if nothing was heard
+        self.heard = True
         self.state = str(info.get("state", DELIVERING))
         self.pid, self.started = int(info.get("pid") or 0), int(info.get("started") or 0)
         self.local = bool(self.pid) and bool(proc.NAMESPACE) and info.get("ns") == proc.NAMESPACE
@@ -109,7 +119,9 @@ class _Producer:
             return {PAUSED: PAUSED, DOWN: GONE}.get(self.state, ALIVE)
         if self.alive > 0:
             return {PAUSED: PAUSED, DOWN: GONE}.get(self.state, ALIVE)
-        return GONE if self.ever_alive else UNKNOWN
+        if self.ever_alive:
+            return GONE
+        return ALIVE if self.announces and not self.heard else UNKNOWN   # its announcement is on its way
 
 
 class ProducerWatch:
@@ -126,6 +138,8 @@ class ProducerWatch:
         self._producers: dict[str, _Producer] = {}             # node name → what is known of it
         self._states: dict[str, str] = {}
         self._states_at = -1.0
+        self._refreshed_at = -1.0
+        self._refresh_lock = threading.Lock()            # the timer and input callbacks may refresh at once
         self._own = node.get_fully_qualified_name()
         node.create_timer(REFRESH_S, self.refresh)
 
@@ -142,18 +156,33 @@ class ProducerWatch:
             self._states_at = now
         return self._states
 
+    def arrived(self, input_name: str) -> None:
+        """A message of ``input_name`` came: while its producers are not known, look them up now
+        (at most every :data:`EAGER_REFRESH_S`) rather than at the next periodic refresh."""
+        if self.states().get(input_name, UNKNOWN) == UNKNOWN and time.monotonic() - self._refreshed_at >= EAGER_REFRESH_S:
+            self.refresh()
+            self._states_at = -1.0
+
     def refresh(self) -> None:
         """Look up who publishes each watched topic and watch the alive topics of new producers."""
-        for topic in set(self._topics.values()):
-            try:
-                infos = self.node.get_publishers_info_by_topic(topic)
-            except Exception:  # noqa: BLE001 - the context is shutting down
-                return
-            names = frozenset(_fqn(i.node_namespace, i.node_name) for i in infos) - {self._own}
-            self._publishers[topic] = names
-            for name in names:
-                if name not in self._producers:
-                    self._producers[name] = self._subscribe(name)
+        with self._refresh_lock:
+            self._refreshed_at = time.monotonic()
+            for topic in set(self._topics.values()):
+                try:
+                    infos = self.node.get_publishers_info_by_topic(topic)
+                except Exception:  # noqa: BLE001 - the context is shutting down
+                    return
+                names = frozenset(_fqn(i.node_namespace, i.node_name) for i in infos) - {self._own}
+                self._publishers[topic] = names
+                for name in names:
+                    p = self._producers.get(name)
+                    if p is None:
+                        p = self._producers[name] = self._subscribe(name)
+                    if not p.heard:             # until it is heard: is its alive publisher (still) there?
+                        try:
+                            p.announces = bool(self.node.get_publishers_info_by_topic(alive_topic(name)))
+                        except Exception:  # noqa: BLE001 - the context is shutting down
+                            return
 
     def _subscribe(self, name: str) -> _Producer:
         p = _Producer()

@@ -136,6 +136,7 @@ class BridgeFrames:
 
     def on_frame(self, msg: PhospheneFrame) -> None:
         self.spv_frames.arrived(SPV_INPUT, time.monotonic())
+        self.spv_producer.arrived(SPV_INPUT)
         self.frames += 1
         if self._ring_shown:
             self._ring_shown = False

@@ -123,6 +123,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self._seen: set[str] = set()
         # display statistics
         self._last_tick: float | None = None
+        self._first_shown = False               # a frame computed from inputs was shown (else: the no-data ring)
         self._ticks = 0
         self._dropped = 0
         self._dropped_reported = 0
@@ -436,6 +437,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
     def _arrived(self, name: str) -> None:
         """A message of watched input ``name`` arrived (and, with RASPV_STARTUP_REPORT, when the first did)."""
         self.staleness.arrived(name, time.monotonic())
+        self.producers.arrived(name)
         if name not in self._seen:
             self._seen.add(name)
             startup_mark(f"first {name}")

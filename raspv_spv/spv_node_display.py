@@ -49,9 +49,16 @@ class SpvDisplay:
                 levels, source_stamp = no_data.levels(t0), 0.0
             else:
                 shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
-                if shown is None:
+                if shown is None and not self._first_shown and stamp is None:
+                    # inputs in, nothing computed from them yet (camera info not in, device latency):
+                    # still the no-data pattern, not a black field labelled with the mode (headless
+                    # runs stay deterministic: blank)
+                    plan = staleness.DisplayPlan(staleness.NO_DATA, (), plan.stale, False)
+                    levels, source_stamp = no_data.levels(t0), 0.0
+                elif shown is None:
                     levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
                 else:
+                    self._first_shown = True
                     levels, shown_frame = shown
                     source_stamp = shown_frame.stamp
                     if shown_sim.mode.needs & staleness.SCENE_INPUTS:

@@ -12,7 +12,8 @@ instead (no ROS).
   carried into each new depth frame and overlays keep their last input. With hysteresis: after
   such a late episode the input counts again only once two messages come within
   :data:`RECOVER_S` of each other (no flicker at the bound).
-- ``paused`` (a source's known pause: a replay paused by the user): never stale.
+- ``paused`` (a source's known pause: a replay paused by the user, a recording reopened to
+  loop): never stale; when it delivers again its inputs' ages count from the moment it did.
 - ``gone`` (its process died or is stopped — the DDS lease expired — or it announced ``down``,
   e.g. a camera unplugged) and ``unknown`` (a publisher that announces nothing, e.g. a foreign
   driver): judged by the gaps of its data alone, as a crash detector must be —
@@ -92,11 +93,13 @@ def late_bound(period_s: float | None) -> float:
 
 
 class _InputClock:
-    __slots__ = ("first_s", "last_s", "intervals", "bound_s", "late_s", "follows", "required", "recovering")
+    __slots__ = ("first_s", "last_s", "resumed_s", "intervals", "bound_s", "late_s", "follows", "required",
+                 "recovering")
 
     def __init__(self) -> None:
         self.first_s: float | None = None
         self.last_s: float | None = None
+        self.resumed_s = float("-inf")              # its producer ended a pause then (display thread's clock)
         self.intervals: deque[float] = deque(maxlen=HISTORY)
         self.bound_s = UNKNOWN_BOUND_S
         self.late_s = LATE_S
@@ -118,7 +121,7 @@ class _InputClock:
             if f is None or f.first_s is None:
                 return False
             return now_s - f.first_s > (max(f.bound_s, LATE_S) if producer == ALIVE else f.bound_s)
-        age = now_s - self.last_s
+        age = now_s - max(self.last_s, self.resumed_s)
         if producer == ALIVE:
             return self.recovering or age > self.late_s
         return age > self.bound_s
@@ -137,6 +140,7 @@ class StalenessMonitor:
         self.monitored = frozenset(monitored)    # the input names it watches (others are ignored)
         self._clocks: dict[str, _InputClock] = {}
         self._stale: frozenset[str] = frozenset()
+        self._paused: set[str] = set()             # inputs whose producer was paused at the last check
         self.episodes = 0                        # times an input that had arrived went stale
         self.late_episodes = 0                   # ... of them past the late bound of an alive producer
 
@@ -179,6 +183,12 @@ class StalenessMonitor:
         :data:`PRODUCER_STATES`; missing: :data:`UNKNOWN`). The same object as last time while
         nothing changed."""
         producers = producers or {}
+        if self._paused or PAUSED in producers.values():
+            paused = {n for n, state in producers.items() if state == PAUSED}
+            for name in self._paused - paused:          # delivering again: its age counts from now
+                if producers.get(name) == ALIVE and (clock := self._clocks.get(name)) is not None:
+                    clock.resumed_s = now_s
+            self._paused = paused
         changed = False
         for name, clock in self._clocks.items():
             if clock.stale(now_s, producers.get(name, UNKNOWN)) != (name in self._stale):

@@ -50,7 +50,9 @@ def levels_while_dragging(probe, head, yaws_deg):
         for yaw in yaws_deg:
             head.publish(head_msg(probe, float(yaw)))
             frames.wait(len(frames.messages) + 1, timeout=30)
-        return [bytes(m.levels) for m in list(frames.messages)]
+        shown = list(frames.messages)
+        assert {m.mode for m in shown} == {"grey"}, f"the display left its mode: {[m.mode for m in shown]}"
+        return [bytes(m.levels) for m in shown]
     finally:
         probe.unsubscribe(frames)
 
@@ -63,7 +65,8 @@ def test_dragging_does_not_turn_a_recorded_camera(graph, probe, tmp_path):
     rec = still_recording(tmp_path / "still.db3")
     graph("config/camera.yaml", [f"camera.file:={rec}", "spv.mode:=grey", "spv.temporal:=false", "spv.width:=200",
                                  "bridge.port:=0", "bridge.tcp_port:=-1"])
-    probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=90)
+    # until the camera's first frame the display shows the no-data ring: wait for the mode itself
+    probe.wait_for_message(topics.SPV_FRAME, PhospheneFrame, timeout=90, predicate=lambda f: f.mode == "grey")
     assert probe.get_params("spv", ["camera_source"]) == {"camera_source": "recording"}
     head = probe.publisher(topics.HEAD_ORIENTATION, QuaternionStamped, qos=COMMAND_QOS)
     assert not spv_reads_the_head(probe)

@@ -125,6 +125,20 @@ def test_a_paused_source_is_never_stale_and_a_camera_never_seen_shows_the_ring()
     assert required_inputs(frozenset({"color", "camera"})) == {"color"}
 
 
+def test_a_source_resuming_from_a_pause_gets_its_late_bound_from_the_moment_it_resumes():
+    """A recording reopened to loop (or a replay the user resumes) announces paused, then
+    delivering: its first frame after that is not overdue (no ring between the two)."""
+    m = StalenessMonitor()
+    m.watch({"depth"})
+    last = feed(m, "depth", 0.0, 1 / 30, 30)
+    assert m.check(last + 0.5, {"depth": PAUSED}) == frozenset()
+    resumed = last + 2.0
+    assert m.check(resumed, {"depth": ALIVE}) == frozenset()        # 2 s after its last frame
+    assert m.check(resumed + LATE_S - 0.01, {"depth": ALIVE}) == frozenset()
+    assert m.check(resumed + LATE_S + 0.01, {"depth": ALIVE}) == {"depth"}   # and no first frame since
+    assert m.episodes == 1
+
+
 def test_scene_outputs_never_seen_wait_longer_for_a_live_scene_node():
     m = StalenessMonitor()
     needs = frozenset({"scene", "scene_labels", "camera"})
