@@ -4,8 +4,10 @@ import re
 import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
+import psutil
 import pytest
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image
@@ -132,3 +134,25 @@ def test_empty_list_in_a_parameter_file_is_an_empty_list(graph, probe):
     [(_, ok, reason)] = probe.set_params("spv", {"overlays": ["path"]})
     assert ok, reason
     assert g.running()
+
+
+def test_a_graph_does_not_outlive_the_process_that_started_it(tmp_path, ros_domain):
+    """A benchmark or test killed with SIGKILL (no cleanup runs) leaves no launcher or node behind."""
+    script = ("import sys, time; from pathlib import Path; from raspv_bringup.testing import RunningGraph; "
+              f"g = RunningGraph({SOURCE!r}, Path({str(tmp_path)!r})); print(g.proc.pid, flush=True); time.sleep(600)")
+    env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain)}
+    owner = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        launcher = psutil.Process(int(owner.stdout.readline()))
+        deadline = time.monotonic() + 60
+        while not launcher.children():                   # the launcher started its node
+            assert time.monotonic() < deadline, "the launcher started no node"
+            time.sleep(0.1)
+        node = launcher.children()[0]
+        owner.kill()
+        owner.wait()
+        gone, alive = psutil.wait_procs([launcher, node], timeout=30)
+        assert not alive, f"still running after their owner was killed: {[p.pid for p in alive]}"
+    finally:
+        if owner.poll() is None:
+            owner.kill()
