@@ -115,6 +115,7 @@ def core_bench(args) -> dict:
             convert.append(1e3 * (t3 - t2))
         cpu_ms = 1e3 * (time.process_time() - cpu0) / args.frames
         collisions = sim.monitor.count
+        shadow_peer = _shadow_pass_peer(sim, args.frames)
     total = [a + b + c for a, b, c in zip(step, render, convert)]
     K = config.intrinsics()
     print(f"part 1 — core, {args.world} at {width}x{height} + {_margin(args):g}° margin = {K.width}x{K.height}, "
@@ -125,7 +126,35 @@ def core_bench(args) -> dict:
     print(f"  image messages           [ms] {_stats(convert)}")
     print(f"  total                    [ms] {_stats(total)}  → {1e3 / statistics.median(total):.0f} fps possible")
     print(f"  CPU per frame            [ms] {cpu_ms:6.1f}  → {1e3 / cpu_ms:.0f} fps on one whole core")
+    if shadow_peer is not None:
+        print(f"  peer: PyBullet's EGL with its shadow-map pass (ignores shadow=0): CPU per render "
+              f"{shadow_peer[1]:.1f} ms vs {shadow_peer[0]:.1f} ms without it ({shadow_peer[1] / shadow_peer[0]:.1f}x)")
     return {"total_ms": statistics.median(total), "cpu_ms": cpu_ms}
+
+
+def _shadow_pass_peer(sim, frames: int) -> tuple[float, float] | None:
+    """(CPU ms per render without, with) the EGL plugin's shadow-map pass, side by side on the
+    same view (:mod:`raspv_sim.egl_shadow_pass`); None with TinyRenderer or a plugin left as is."""
+    import importlib.util
+
+    from raspv_sim.egl_shadow_pass import set_shadow_map
+
+    if sim.renderer.name != "egl":
+        return None
+    plugin = importlib.util.find_spec("eglRenderer").origin
+    out = []
+    try:
+        for on in (False, True):
+            if set_shadow_map(plugin, on) is not None:
+                return None
+            sim.render()
+            cpu0 = time.process_time()
+            for _ in range(max(3, frames // 4)):
+                sim.render()
+            out.append(1e3 * (time.process_time() - cpu0) / max(3, frames // 4))
+    finally:
+        set_shadow_map(plugin, False)
+    return out[0], out[1]
 
 
 def node_bench(args) -> int:

@@ -171,7 +171,7 @@ class RaspvNode(Node):
         """Release resources (flush logs, close files); called once at shutdown."""
 
 
-STOP_HANG_S = 6.0     # s: a node's own shutdown (close, destroy, rclpy) longer than this is a hang
+STOP_HANG_S = 6.0     # s: a node's ROS teardown (destroy, rclpy shutdown) longer than this is a hang
 
 
 def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None = None,
@@ -210,17 +210,18 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
         if rclpy.ok():
             raise
     finally:
-        # a stop that hangs prints every thread's stack to the node's log and exits, before the
-        # launcher's SIGINT grace (8 s) runs out and SIGKILL leaves nothing to go on
-        faulthandler.dump_traceback_later(STOP_HANG_S, exit=True)
-        if node is not None:
-            code = code or node.exit_code
-            try:
-                node.close()
-            finally:
+        try:
+            if node is not None:
+                code = code or node.exit_code
+                node.close()            # finishing recordings and logs: bounded by the launcher's grace only
+        finally:
+            # a ROS teardown that hangs prints every thread's stack to the node's log and exits,
+            # before the launcher's SIGINT grace (8 s) runs out and SIGKILL leaves nothing to go on
+            faulthandler.dump_traceback_later(STOP_HANG_S, exit=True)
+            if node is not None:
                 node.destroy_node()
-        rclpy.try_shutdown()
-        faulthandler.cancel_dump_traceback_later()
+            rclpy.try_shutdown()
+            faulthandler.cancel_dump_traceback_later()
     if code:
         sys.exit(code)
 

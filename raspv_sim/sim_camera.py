@@ -6,7 +6,8 @@ places for the same projection matrix (EGL at (u + ½, v + ½) like OpenGL; Tiny
 half a pixel in x and −½ in y), so the projection matrix is built per renderer from the
 intrinsics, which follow the project's convention (integer pixel coordinates at pixel centres,
 ``raspv_common.intrinsics``). Depth is metric z along the optical axis, float32, NaN where
-nothing is closer than ``far``.
+nothing is closer than ``far``. The EGL plugin's shadow-map pass, which ignores ``shadow=0``
+and costs most of a frame without a GPU, is turned off (:mod:`raspv_sim.egl_shadow_pass`).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import numpy as np
 import pybullet
 
 from raspv_common.intrinsics import CameraIntrinsics
+from raspv_sim.egl_shadow_pass import disable_shadow_map
 from raspv_sim.native_output import captured_native_output
 
 # Continuous pixel coordinate, in the project's convention, of the point a symmetric projection
@@ -50,8 +52,10 @@ def load_renderer(client, prefer: str = "auto") -> RendererInfo:
                 ok = plugin >= 0 and _renders(client, pybullet.ER_BULLET_HARDWARE_OPENGL)
             if ok:
                 gl = re.search(r"GL_RENDERER=(.*)", out.text)
-                return RendererInfo("egl", f"EGL OpenGL ({gl.group(1).strip() if gl else 'unknown GL renderer'})",
-                                    pybullet.ER_BULLET_HARDWARE_OPENGL)
+                kept = disable_shadow_map(spec.origin)        # the plugin ignores shadow=0 (egl_shadow_pass.py)
+                shadow = f"; shadow-map pass left on: {kept}" if kept else ""
+                return RendererInfo("egl", f"EGL OpenGL ({gl.group(1).strip() if gl else 'unknown GL renderer'}"
+                                           f"{shadow})", pybullet.ER_BULLET_HARDWARE_OPENGL)
             if plugin >= 0:
                 client.unloadPlugin(plugin)
             reason = "the EGL plugin did not load (" + (" ".join(out.text.split())[-120:] or "no EGL display") + ")"

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import threading
 import time
 
 from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3
@@ -46,6 +47,12 @@ MAX_STEP_S = 0.2               # a stalled tick never moves the avatar more than
 
 _AVATAR_PARAMS = {"eye_height": "eye_height", "max_linear": "max_linear", "max_angular": "max_angular",
                   "slide": "slide"}
+
+
+def _import_run_plotting() -> None:
+    """Import what :meth:`Simulation.finish_log` plots with (matplotlib: seconds on a loaded machine)."""
+    import raspv_sim.occupancy_export  # noqa: F401
+    import raspv_sim.trajectory_plot  # noqa: F401
 
 
 def depth_sensor_config(p: dict) -> DepthSensorConfig | None:
@@ -85,6 +92,8 @@ class SimNode(RaspvNode):
                 self.sim.close()
                 raise ConfigurationError(f"cannot write logs to '{p['log_dir']}': {exc.strerror}") from None
             self.get_logger().info(f"logging the run to {log.dir}")
+            # the run's plot is drawn at shutdown: import matplotlib now, not within the stop's grace
+            threading.Thread(target=_import_run_plotting, name="import-plotting", daemon=True).start()
         self.camera_info = intrinsics_to_camera_info(self.sim.intrinsics)
         self.pub_color = self.create_publisher(Image, topics.COLOR, SENSOR_QOS)
         self.pub_depth = self.create_publisher(Image, topics.DEPTH, SENSOR_QOS)
