@@ -43,9 +43,9 @@ PYTHON_DEPS: dict[str, str | None] = {
     "matplotlib": "python3-matplotlib", "psutil": "python3-psutil", "websockets": "python3-websockets",
     "open3d": "python3-open3d-pip", "pybullet": "python3-pybullet-pip", "pybullet_data": "python3-pybullet-pip",
     "pybullet_utils": "python3-pybullet-pip", "onnxruntime": "python3-onnxruntime-pip",
-    "rosbags": None, "foxglove": None, "lz4": None, "compression": None, "backports": None,
+    "rosbags": None, "foxglove": None, "lz4": None, "compression": None, "backports": None, "elftools": None,
 }
-PIP_NAMES = {"rosbags": "rosbags", "foxglove": "foxglove-sdk", "lz4": "rosbags", "compression": "rosbags",
+PIP_NAMES = {"rosbags": "rosbags", "foxglove": "foxglove-sdk", "elftools": "pyelftools", "lz4": "rosbags", "compression": "rosbags",
              "backports": "rosbags"}
 # Imported only when a user asks for them (camera SDKs, torch models, Ray sweeps, image metrics):
 # optional extras of pyproject.toml, not package dependencies.

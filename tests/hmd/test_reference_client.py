@@ -60,7 +60,9 @@ def test_client_streams_moves_the_head_and_measures(streaming, recorder, transpo
     assert report.frames == 25 and report.role == "control" and report.formats_seen == {fmt: 25}
     assert report.size == (800, 800) and report.last_frame.shape == (800, 800) and report.last_frame.max() > 200
     assert report.rtt_ms and report.clock_offset_s is not None and abs(report.clock_offset_s) < 0.05
-    assert len(report.latency_ms) == 25 and min(report.latency_ms) > -5
+    # latencies go through the clock offset estimated from the fastest ping, whose error is at
+    # most half that ping's round trip (asymmetric delays on a loaded machine): never lower
+    assert len(report.latency_ms) == 25 and min(report.latency_ms) > -(min(report.rtt_ms) / 2 + 1.0)
     assert report.heads_sent
     recorder.wait(lambda r: len(r.heads) >= len(report.heads_sent))
     sent = [q for _, q in report.heads_sent]
