@@ -32,7 +32,8 @@ _TOP_KEYS = {"name", "description", "graph", "conditions", "tasks", "design", "r
 _TASK_KEYS = {"world", "start", "goal", "time_limit", "instructions"}
 _DESIGN_KEYS = {"repetitions", "practice", "blocks", "order", "within_block", "seed", "break_between_blocks"}
 _RECORD_KEYS = {"bag", "bag_topics", "trajectory_rate"}
-DEFAULT_BAG_TOPICS = ("/camera/pose", "/odom", "/cmd_vel", "/head/orientation", "/sim/collisions", "/spv/frame",
+DEFAULT_BAG_TOPICS = ("/camera/pose", "/odom", "/cmd_vel", "/head/orientation", "/gaze/direction", "/sim/collisions",
+                      "/spv/frame",
                       "/spv/map", "/nav/path")
 
 

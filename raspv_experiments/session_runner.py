@@ -32,6 +32,7 @@ from raspv_bringup.graph import Graph, NodeEntry
 from raspv_bringup.supervisor import Supervisor, _die_with_parent
 from raspv_common.shown_share import ShownFrame, shown_share
 from raspv_experiments.design import PlannedTrial, plan_session, subject_number
+from raspv_experiments.gaze_metrics import trial_gaze_metrics
 from raspv_experiments.metrics import trajectory_record, trial_metrics
 from raspv_experiments.protocol import Protocol, Task
 from raspv_experiments.runner_node import GraphClient
@@ -439,6 +440,9 @@ class SessionRunner:
                                     f"task:{task.goal.label}", shortest, geometry)
             record["metrics"] = metrics.as_dict()
             record["trajectory"] = trajectory_record(run_dir, start_t, end_t)
+            gaze = trial_gaze_metrics(run_dir, start_t, end_t)     # when the trial logged eye gaze
+            if gaze is not None:
+                record["gaze"] = gaze.as_dict()
         if self.options.bag if self.options.bag is not None else self.protocol.record.bag:
             record["bag"] = str(run_dir / "bag")
         return record

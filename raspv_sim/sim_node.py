@@ -22,7 +22,7 @@ import json
 import math
 import time
 
-from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3
+from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3, Vector3Stamped
 from nav_msgs.msg import Odometry
 from raspv_msgs.msg import CollisionEvent as CollisionEventMsg
 from raspv_msgs.srv import EndTrial, StartTrial
@@ -97,6 +97,8 @@ class SimNode(RaspvNode):
         self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
         self._commands = [self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS),
                           self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
+        # every eye-gaze sample into the run's log (gaze.csv), while one is written
+        self.create_subscription(Vector3Stamped, topics.GAZE_DIRECTION, self.on_gaze, EVENT_QOS)
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf
         self.head: tuple[float, float, float, float] | None = None     # the last head orientation received
@@ -130,6 +132,15 @@ class SimNode(RaspvNode):
             return
         self.cmd = (float(v), float(w))
         self.cmd_time = time.monotonic()
+
+    def on_gaze(self, msg: Vector3Stamped) -> None:
+        log, v = self.sim.log, msg.vector
+        if log is None:
+            return
+        direction = (v.x, v.y, v.z)
+        norm = math.sqrt(sum(c * c for c in direction))
+        valid = all(math.isfinite(c) for c in direction) and norm > 1e-9
+        log.gaze(self.sim.t, stamp_to_seconds(msg.header.stamp), tuple(c / norm for c in direction) if valid else None)
 
     def on_head(self, msg: QuaternionStamped) -> None:
         q = msg.quaternion

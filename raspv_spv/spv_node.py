@@ -69,6 +69,7 @@ from raspv_spv import staleness
 from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.display_clock import DisplayClock
 from raspv_spv.spv_node_display import REPORT_PERIOD_S, SpvDisplay
+from raspv_spv.spv_node_gaze import SpvGaze
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -86,7 +87,7 @@ INPUT_TOPICS = {"color": topics.COLOR, "depth": topics.DEPTH, "scene": topics.SC
                 "stairs": topics.STAIRS, "segmentation": topics.SEGMENTATION_LABELS}
 
 
-class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
+class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
@@ -141,6 +142,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self._stop_display = threading.Event()
         self.clock = DisplayClock()
         self._shown_head: np.ndarray | None = None      # the last head orientation that poked the display
+        self._setup_gaze()                              # eye gaze (gaze_mode, raspv_spv.spv_node_gaze)
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
         self._headless_stamp: float | None = None
         if not self.params["headless"]:
