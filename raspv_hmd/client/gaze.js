@@ -124,8 +124,10 @@
         showTarget(...target);
         await sleep(CAL_SETTLE_MS);
         const got = [];
-        G.collect = got;
+        G.collect = got;                      // a still pointer is a steady fixation: sampled at 60 Hz too
+        const still = setInterval(() => { if (G.lastRaw && G.source !== "off") got.push(G.lastRaw); }, 16);
         await sleep(CAL_COLLECT_MS);
+        clearInterval(still);
         G.collect = null;
         if (got.length) points.push({ target, measured: [median(got.map((a) => a[0])), median(got.map((a) => a[1]))] });
       }
