@@ -440,3 +440,13 @@ def _controlled(proto: Protocol) -> dict[str, dict[str, Any]]:
             for k in values:
                 out.setdefault(node, {})[k] = entry.params.get(k, defaults[k])
     return out
+
+
+def uses_gaze(protocol: Protocol) -> bool:
+    """True when the graph's spv node or a condition sets ``gaze_mode`` other than ``ignored`` (a
+    scripted subject then moves its eyes, :mod:`raspv_experiments.scripted_gaze`)."""
+    spv = {n.name for n in protocol.graph.nodes if n.kind == "spv"}
+    modes = [n.params.get("gaze_mode", "ignored") for n in protocol.graph.nodes if n.kind == "spv"]
+    modes += [values.get("gaze_mode", "ignored") for c in protocol.conditions for node, values in c.params.items()
+              if node in spv]
+    return any(m != "ignored" for m in modes)

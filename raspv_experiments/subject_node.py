@@ -33,7 +33,7 @@ from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.node import RaspvNode, run_node
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
 from raspv_experiments.scripted_gaze import (GazeModelConfig, GazeScript, displayed_layout_index, load_trace,
                                              model_trace)
@@ -63,7 +63,7 @@ class SubjectNode(RaspvNode):
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_step = self.create_publisher(TwistStamped, topics.SIM_LOCKSTEP, COMMAND_QOS)
         self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
-        self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, EVENT_QOS)
+        self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, GAZE_QOS)
         self.gaze: GazeScript | None = None
         self._seen_at: tuple[tuple, np.ndarray] | None = None      # ((map id, offset), displayed index)
         self.spacing_px = 1.0

@@ -26,7 +26,7 @@ from std_msgs.msg import String
 from raspv_common import topics
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from raspv_hmd.audio_cues import CueSettings
 from raspv_hmd.bridge_frames import BridgeFrames
 from raspv_hmd.bridge_params import PARAMS
@@ -60,7 +60,7 @@ class BridgeNode(BridgeFrames, RaspvNode):
             raise ConfigurationError(str(exc)) from None
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
-        self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, EVENT_QOS)   # every sample kept for recorders
+        self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, GAZE_QOS)   # every sample kept for recorders
         self.gaze_clocks: dict[int, SenderClock] = {}            # per client: its eye tracker's timing
         self.spv = ParamClient(self, p["spv_node"])
         self.requests: collections.deque[tuple[int, Callable[[int], None], float]] = collections.deque()

@@ -33,7 +33,7 @@ from std_msgs.msg import String
 from raspv_common import topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
@@ -98,7 +98,7 @@ class SimNode(RaspvNode):
         self._commands = [self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS),
                           self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
         # every eye-gaze sample into the run's log (gaze.csv), while one is written
-        self.create_subscription(Vector3Stamped, topics.GAZE_DIRECTION, self.on_gaze, EVENT_QOS)
+        self.create_subscription(Vector3Stamped, topics.GAZE_DIRECTION, self.on_gaze, GAZE_QOS)
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf
         self.head: tuple[float, float, float, float] | None = None     # the last head orientation received

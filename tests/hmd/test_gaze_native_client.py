@@ -14,7 +14,7 @@ import pytest
 
 from raspv_common import topics
 from raspv_common.conversions import stamp_to_seconds
-from raspv_common.qos import EVENT_QOS, LATCHED_QOS
+from raspv_common.qos import GAZE_QOS, LATCHED_QOS
 from geometry_msgs.msg import Vector3Stamped
 from raspv_hmd import protocol as P
 from raspv_hmd.levels_stream import SPRITES_MAGIC, levels_offset
@@ -61,7 +61,7 @@ def test_a_native_client_drives_gaze_locked_and_contingent_phosphenes(graph, pro
                "bridge": {"ros__parameters": {"port": 0, "tcp_port": 0}}})
     tcp_port = int(g.wait_for_output(URL, timeout=60).group(3))
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
-    gazes = probe.subscribe(topics.GAZE_DIRECTION, Vector3Stamped, qos=EVENT_QOS)
+    gazes = probe.subscribe(topics.GAZE_DIRECTION, Vector3Stamped, qos=GAZE_QOS)
     the_map = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=60, qos=LATCHED_QOS)
     src = Source(probe)
     src.head.publish(head_msg(probe, 0.0))
