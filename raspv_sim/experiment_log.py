@@ -25,6 +25,7 @@ import csv
 import datetime as _dt
 import json
 import math
+import threading
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -85,6 +86,7 @@ class ExperimentLog:
         self._next_t = 0.0
         self._last_t = -math.inf
         self._gaze: TextIO | None = None          # gaze.csv, opened with the first sample
+        self._gaze_lock = threading.Lock()        # samples are written from another thread than close()
         self.closed = False
 
     def sample(self, s: TrajectorySample, force: bool = False) -> bool:
@@ -113,14 +115,15 @@ class ExperimentLog:
     def gaze(self, t: float, stamp: float, direction: tuple[float, float, float] | None) -> None:
         """One eye-gaze sample received at sim time ``t``, stamped ``stamp`` [s]; ``direction`` a unit
         vector in the head frame, None when invalid."""
-        if self.closed:
-            return
-        if self._gaze is None:
-            self._gaze = open(self.dir / "gaze.csv", "w", buffering=1)
-            self._gaze.write(",".join(GAZE_FIELDS) + "\n")
         xyz = ",".join(f"{v:.6f}" for v in direction) if direction is not None else ",,"
-        self._gaze.write(f"{t - self.t0:.4f},{stamp:.6f},{xyz},{int(direction is not None)}\n")
-        self._gaze.flush()
+        with self._gaze_lock:
+            if self.closed:
+                return
+            if self._gaze is None:
+                self._gaze = open(self.dir / "gaze.csv", "w", buffering=1)
+                self._gaze.write(",".join(GAZE_FIELDS) + "\n")
+            self._gaze.write(f"{t - self.t0:.4f},{stamp:.6f},{xyz},{int(direction is not None)}\n")
+            self._gaze.flush()
 
     def goal(self, name: str, t: float) -> None:
         self._event({"t": round(t - self.t0, 4), "event": "goal", "name": name})
@@ -129,11 +132,12 @@ class ExperimentLog:
         """Close the files and write ``summary.json``; returns the summary."""
         if self.closed:
             return summarize_run(self.dir)
-        self.closed = True
+        with self._gaze_lock:
+            self.closed = True
+            if self._gaze is not None:
+                self._gaze.close()
         self._traj.close()
         self._events.close()
-        if self._gaze is not None:
-            self._gaze.close()
         return summarize_run(self.dir)
 
 

@@ -22,7 +22,7 @@ import json
 import math
 import time
 
-from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3, Vector3Stamped
+from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from raspv_msgs.msg import CollisionEvent as CollisionEventMsg
 from raspv_msgs.srv import EndTrial, StartTrial
@@ -33,11 +33,12 @@ from std_msgs.msg import String
 from raspv_common import topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
 from raspv_sim.lockstep import Lockstep
+from raspv_sim.sim_node_gaze import SimGazeLog
 from raspv_sim.sim_params import PARAMS
 from raspv_sim.simulator import SimConfig, Simulation
 from raspv_sim.world_spec import GoalSpec, WorldFileError
@@ -65,7 +66,7 @@ def sim_config(p: dict) -> SimConfig:
                      collision_debounce=p["collision_debounce"], seed=p["seed"])
 
 
-class SimNode(RaspvNode):
+class SimNode(SimGazeLog, RaspvNode):
     def __init__(self) -> None:
         super().__init__("sim", PARAMS)
         p = self.params
@@ -97,8 +98,7 @@ class SimNode(RaspvNode):
         self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
         self._commands = [self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS),
                           self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
-        # every eye-gaze sample into the run's log (gaze.csv), while one is written
-        self.create_subscription(Vector3Stamped, topics.GAZE_DIRECTION, self.on_gaze, GAZE_QOS)
+        self._setup_gaze_log()              # every eye-gaze sample into the run's log (gaze.csv), while one is written
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf
         self.head: tuple[float, float, float, float] | None = None     # the last head orientation received
@@ -132,15 +132,6 @@ class SimNode(RaspvNode):
             return
         self.cmd = (float(v), float(w))
         self.cmd_time = time.monotonic()
-
-    def on_gaze(self, msg: Vector3Stamped) -> None:
-        log, v = self.sim.log, msg.vector
-        if log is None:
-            return
-        direction = (v.x, v.y, v.z)
-        norm = math.sqrt(sum(c * c for c in direction))
-        valid = all(math.isfinite(c) for c in direction) and norm > 1e-9
-        log.gaze(self.sim.t, stamp_to_seconds(msg.header.stamp), tuple(c / norm for c in direction) if valid else None)
 
     def on_head(self, msg: QuaternionStamped) -> None:
         q = msg.quaternion
@@ -316,6 +307,7 @@ class SimNode(RaspvNode):
                                  speed=float(e.speed), count=int(e.count))
 
     def close(self) -> None:
+        self._close_gaze_log()
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         sim = getattr(self, "sim", None)
         if sim is None:
