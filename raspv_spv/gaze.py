@@ -21,7 +21,8 @@ direction g_opt projects through K_P to the point the eye looks at; the field's 
 principal point) is drawn there: offset = f_P·(g_opt,x/g_opt,z, g_opt,y/g_opt,z) px. The whole
 field is *translated* by that offset (the levels stream carries one offset, not a warp): exact at
 the field's centre; a phosphene φ off-centre lands f_P·(tan(θ+φ) − tan θ − tan φ) from where the
-rotation would put it (0.4° for θ = 10°, φ = 10°; 1.7° for θ = 20°, φ = 15°).
+rotation would put it (0.22° for θ = 5°, φ = 10°; 0.57° for θ = φ = 10°; 2.7° for θ = 20°, φ = 15°):
+for the default 20° device (spacing 0.68°) within one phosphene spacing up to a gaze of ~11°.
 
 Saccades (the eye's fast jumps, 20–80 ms, up to 500°/s) are found by a velocity threshold
 between successive samples (I-VT, Salvucci & Goldberg 2000, ETRA; 30°/s is Tobii's I-VT default,
@@ -56,19 +57,25 @@ class GazeError(ValueError):
     """A gaze direction that is not one (zero length, not finite, behind the head)."""
 
 
-def unit_direction(direction) -> np.ndarray:
-    """``direction`` (3,) in the head frame → unit vector; raises :class:`GazeError`."""
-    d = np.asarray(direction, dtype=np.float64).reshape(-1)
-    if d.shape != (3,) or not np.all(np.isfinite(d)):
+_MIN_FORWARD = math.cos(math.radians(MAX_ECCENTRICITY_DEG))
+
+
+def unit_direction(direction) -> tuple[float, float, float]:
+    """``direction`` (3 numbers) in the head frame → unit vector (x, y, z); raises :class:`GazeError`.
+    Plain floats, not numpy: this runs for every sample (120 Hz and more) beside the display thread."""
+    try:
+        x, y, z = (float(c) for c in direction)
+    except (TypeError, ValueError):
+        raise GazeError(f"a gaze direction is 3 finite numbers, got {direction!r}") from None
+    n = math.sqrt(x * x + y * y + z * z)
+    if not math.isfinite(n):
         raise GazeError(f"a gaze direction is 3 finite numbers, got {direction!r}")
-    n = float(np.linalg.norm(d))
     if n < 1e-9:
         raise GazeError("a gaze direction of zero length (an invalid sample is sent with valid: false)")
-    d = d / n
-    if math.degrees(math.acos(max(-1.0, min(1.0, d[0])))) > MAX_ECCENTRICITY_DEG:
-        raise GazeError(f"gaze {np.round(d, 3).tolist()} is more than {MAX_ECCENTRICITY_DEG:g} deg from straight "
-                        "ahead (x forward, y left, z up)")
-    return d
+    if x / n < _MIN_FORWARD:
+        raise GazeError(f"gaze {[round(c / n, 3) for c in (x, y, z)]} is more than {MAX_ECCENTRICITY_DEG:g} deg "
+                        "from straight ahead (x forward, y left, z up)")
+    return (x / n, y / n, z / n)
 
 
 def direction_from_angles(yaw_deg: float, pitch_deg: float) -> np.ndarray:
@@ -84,9 +91,11 @@ def gaze_angles_deg(direction) -> tuple[float, float]:
 
 
 def angle_between_deg(a, b) -> float:
-    """Angle between two unit vectors [deg] (stable for small angles)."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return math.degrees(math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b)))
+    """Angle between two 3-vectors [deg] (atan2 of |a×b| and a·b: stable for small angles)."""
+    ax, ay, az = (float(c) for c in a)
+    bx, by, bz = (float(c) for c in b)
+    cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    return math.degrees(math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz))
 
 
 def gaze_rotation_head(direction) -> np.ndarray:
@@ -128,12 +137,12 @@ def shift_image(image: np.ndarray, dx: int, dy: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GazeState:
-    """The gaze at a display time: ``direction`` (unit, head frame; None: no valid sample yet),
+    """The gaze at a display time: ``direction`` (unit (x, y, z), head frame; None: no valid sample yet),
     ``fixated`` (the direction of the last fixation, for ``hold``), ``saccade`` under way,
     ``valid``: the newest sample was valid."""
 
-    direction: np.ndarray | None
-    fixated: np.ndarray | None
+    direction: tuple[float, float, float] | None
+    fixated: tuple[float, float, float] | None
     saccade: bool
     valid: bool
 
@@ -146,13 +155,13 @@ class GazeTracker:
     def __init__(self, saccade_threshold_deg_s: float = SACCADE_THRESHOLD_DEG_S) -> None:
         self.threshold = float(saccade_threshold_deg_s)
         self._lock = threading.Lock()
-        self._direction: np.ndarray | None = None
-        self._fixated: np.ndarray | None = None
+        self._direction: tuple[float, float, float] | None = None
+        self._fixated: tuple[float, float, float] | None = None
         self._stamp: float | None = None
         self._received = -math.inf
         self._saccade = False
         self._valid = False
-        self._shown: tuple[np.ndarray | None, bool] = (None, False)
+        self._shown: tuple[tuple[float, float, float] | None, bool] = (None, False)
         self.samples = self.invalid = self.saccades = 0
 
     def add(self, stamp: float, direction, valid: bool, now: float) -> bool:

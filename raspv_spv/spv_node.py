@@ -493,6 +493,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
 
     def close(self) -> None:
+        self._close_gaze()
         self._builder.close()
         self._stop_display.set()
         self.clock.stop()
