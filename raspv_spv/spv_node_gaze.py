@@ -9,20 +9,18 @@ Gaze samples come at 60–1000 Hz. Taken by the spv node's own executor, every s
 wake-up of a wait set holding all its subscriptions, services and timers (the cost the bridge's
 frames avoid the same way, :mod:`raspv_hmd.bridge_frames`): the gaze step's display onset had a
 p95 4× a head turn's. So they are taken by a lean node of their own (one subscription, no
-parameter services) spun by its own executor in a thread. A mixin of :class:`raspv_spv.spv_node.SpvNode`.
+parameter services) spun by its own executor in a thread (:mod:`raspv_common.side_executor`). A mixin of :class:`raspv_spv.spv_node.SpvNode`.
 """
 from __future__ import annotations
 
-import threading
 import time
 
-import rclpy
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
 
 from raspv_common import topics
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.qos import SENSOR_QOS
+from raspv_common.side_executor import SideExecutor
 from raspv_spv.gaze import NO_GAZE, GazeDisplay, GazeError, GazeTracker, gaze_display
 
 GAZE_PARAMS = frozenset({"gaze_mode", "saccade_display", "saccade_threshold"})
@@ -35,30 +33,17 @@ class SpvGaze:
         self.gaze = GazeTracker(self.params["saccade_threshold"])
         self._gaze_params = {k: self.params[k] for k in GAZE_PARAMS}    # applied at once (params follow later)
         self._gaze_sub = None
-        self._gaze_node = rclpy.create_node(f"{self.get_name()}_gaze", context=self.context,
-                                            start_parameter_services=False, enable_rosout=False)
-        self._gaze_follow = self._gaze_node.create_guard_condition(self._follow_gaze_mode)
-        self._gaze_executor = SingleThreadedExecutor(context=self.context)
-        self._gaze_executor.add_node(self._gaze_node)
-        self._gaze_thread = threading.Thread(target=self._spin_gaze, name="spv-gaze", daemon=True)
-        self._gaze_thread.start()
-        self._gaze_follow.trigger()
+        self._gaze_side = SideExecutor(self, "gaze", "spv-gaze", self._setup_gaze_node)
 
-    def _spin_gaze(self) -> None:
-        try:
-            while self.context.ok():
-                self._gaze_executor.spin_once(timeout_sec=0.5)
-        except (ExternalShutdownException, ShutdownException, RuntimeError):
-            pass                                    # shutting down
+    def _setup_gaze_node(self, node) -> None:
+        self._gaze_node = node
+        self._gaze_follow = node.create_guard_condition(self._follow_gaze_mode)
+        self._gaze_follow.trigger()                 # subscribes (or not) as soon as the thread spins
 
     def _close_gaze(self) -> None:
-        """Stop the gaze thread, then destroy its node (never while its executor waits on it)."""
-        executor = getattr(self, "_gaze_executor", None)
-        if executor is not None:
-            executor.shutdown(timeout_sec=1.0)
-            self._gaze_thread.join(timeout=2.0)
-            if not self._gaze_thread.is_alive():
-                self._gaze_node.destroy_node()
+        side = getattr(self, "_gaze_side", None)
+        if side is not None:
+            side.close()
 
     def _follow_gaze_mode(self) -> None:
         """Subscribe to the gaze while it is used, and only then (in the gaze thread)."""

@@ -129,6 +129,7 @@
         await sleep(CAL_COLLECT_MS);
         clearInterval(still);
         G.collect = null;
+        if (!got.length && G.lastRaw && G.source !== "off") got.push(G.lastRaw);   // timers throttled: where it rests
         if (got.length) points.push({ target, measured: [median(got.map((a) => a[0])), median(got.map((a) => a[1]))] });
       }
     } finally {

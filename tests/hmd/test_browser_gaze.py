@@ -9,15 +9,10 @@ import time
 import numpy as np
 import pytest
 
-from raspv_common import topics
-from raspv_common.conversions import stamp_to_seconds
-from raspv_common.qos import LATCHED_QOS
 from raspv_hmd import protocol as P
-from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv.gaze import angle_between_deg, direction_from_angles, field_offset_px, shift_image
 
-from ..spv.test_spv_node_reprojection import Source, _first_frame, head_msg
-from .test_bridge_node import URL
+from .test_gaze_native_client import start_gaze_graph
 from .test_browser_client import browser_context, page, pytestmark, streaming_server, wait_shown  # noqa: F401
 
 FOCAL = 500.0
@@ -33,6 +28,7 @@ def last_gaze_deg(recorder):
     return math.degrees(math.atan2(d[1], d[0])), math.degrees(math.atan2(-d[2], math.hypot(d[0], d[1])))
 
 
+@pytest.mark.slow
 def test_mouse_gaze_head_drag_and_calibration(page, streaming_server, recorder):
     server = streaming_server()
     server.show_view(width=640, height=480, focal_px=FOCAL, spacing_px=20.0, fov_deg=65.2)
@@ -74,20 +70,8 @@ def test_mouse_gaze_head_drag_and_calibration(page, streaming_server, recorder):
 
 @pytest.mark.slow
 def test_the_mouse_moves_the_field_in_a_graph(graph, probe, page):
-    g = graph({"launch": {"nodes": [{"kind": "spv"}, {"kind": "bridge"}]},
-               "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
-                                           "rate": 25.0, "stale_inputs": False, "camera_source": "sim",
-                                           "gaze_mode": "locked"}},
-               "bridge": {"ros__parameters": {"port": 0, "tcp_port": -1}}})
-    url = g.wait_for_output(URL.replace(r"; native clients: tcp://127\.0\.0\.1:(\d+)", ""), timeout=60).group(1)
-    frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
-    the_map = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=60, qos=LATCHED_QOS)
-    src = Source(probe)
-    src.head.publish(head_msg(probe, 0.0))
-
-    def of(stamp):
-        return lambda f: abs(stamp_to_seconds(f.source_stamp) - stamp) < 1e-6 and max(f.levels) > 0
-    t0, _ = _first_frame(src, frames, of)
+    g, frames, the_map, _, _, _ = start_gaze_graph(graph, probe, tcp_port=-1)
+    url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=60).group(1)
     page.goto(f"{url}?gaze=mouse&overlay=0")
     wait_shown(page)
     page.wait_for_function("() => window.raspvClient.view && window.raspvClient.drawer === 'cpu'")

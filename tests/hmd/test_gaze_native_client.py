@@ -53,15 +53,16 @@ async def send_trace(tcp: Tcp, rate_hz: float = 120.0) -> None:
         await asyncio.sleep(max(0.0, t0 + (k + 1) / rate_hz - time.time()))
 
 
-def test_a_native_client_drives_gaze_locked_and_contingent_phosphenes(graph, probe):
+def start_gaze_graph(graph, probe, tcp_port: int = 0):
+    """spv (gaze locked, one held ramp frame) + bridge → (graph, /spv/frame collector, the map,
+    the frame's stamp, its levels, a predicate "a lit frame of that stamp")."""
     g = graph({"launch": {"nodes": [{"kind": "spv"}, {"kind": "bridge"}]},
                "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
                                            "rate": 25.0, "stale_inputs": False, "camera_source": "sim",
                                            "gaze_mode": "locked"}},
-               "bridge": {"ros__parameters": {"port": 0, "tcp_port": 0}}})
-    tcp_port = int(g.wait_for_output(URL, timeout=60).group(3))
+               "bridge": {"ros__parameters": {"port": 0, "tcp_port": tcp_port}}})
+    g.wait_for_output(r"open http://127\.0\.0\.1:\d+/ in a browser", timeout=60)
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
-    gazes = probe.subscribe(topics.GAZE_DIRECTION, Vector3Stamped, qos=GAZE_QOS)
     the_map = probe.wait_for_message(topics.SPV_MAP, PhospheneMap, timeout=60, qos=LATCHED_QOS)
     src = Source(probe)
     src.head.publish(head_msg(probe, 0.0))
@@ -69,11 +70,18 @@ def test_a_native_client_drives_gaze_locked_and_contingent_phosphenes(graph, pro
     def of(stamp):
         return lambda f: abs(stamp_to_seconds(f.source_stamp) - stamp) < 1e-6 and max(f.levels) > 0
     t0, still = _first_frame(src, frames, of)
+    return g, frames, the_map, t0, still, of(t0)
+
+
+def test_a_native_client_drives_gaze_locked_and_contingent_phosphenes(graph, probe):
+    gazes = probe.subscribe(topics.GAZE_DIRECTION, Vector3Stamped, qos=GAZE_QOS)
+    g, frames, the_map, t0, still, of_t0 = start_gaze_graph(graph, probe)
+    tcp_port = int(g.wait_for_output(URL, timeout=60).group(3))
     expected = np.round(field_offset_px(direction_from_angles(YAW_DEG, 0.0), the_map.focal_px))
     assert expected[0] < -10                            # looking left moves the field left by ~35 px
 
     def gazed(f, mode_levels):
-        return (of(t0)(f) and (round(f.field_offset_x_px), round(f.field_offset_y_px)) == tuple(expected)
+        return (of_t0(f) and (round(f.field_offset_x_px), round(f.field_offset_y_px)) == tuple(expected)
                 and mode_levels(np.array(f.levels)))
 
     async def run():
@@ -112,7 +120,7 @@ def test_a_native_client_drives_gaze_locked_and_contingent_phosphenes(graph, pro
         [(_, ok, _)] = await asyncio.to_thread(probe.set_params, "spv", {"gaze_mode": "ignored"})
         assert ok
         t_set = time.time()
-        frames.wait(1, timeout=30, predicate=lambda f: stamp_to_seconds(f.header.stamp) > t_set and of(t0)(f)
+        frames.wait(1, timeout=30, predicate=lambda f: stamp_to_seconds(f.header.stamp) > t_set and of_t0(f)
                     and f.field_offset_x_px == 0.0 and np.array_equal(np.array(f.levels), still))
         await eye.close()
         await watcher.close()
