@@ -186,7 +186,10 @@ def _subscribe(probe, log: ProbeLog) -> None:
                          n.create_subscription(PoseStamped, topics.CAMERA_POSE, pose, qos),
                          n.create_subscription(SceneStructureMsg, topics.SCENE_STRUCTURE, scene, qos),
                          n.create_subscription(PhospheneFrame, topics.SPV_FRAME, frame, qos),
-                         n.create_subscription(Vector3Stamped, topics.GAZE_DIRECTION, gaze, qos)]
+                         # best effort: a slow reliable reader of a 120 Hz stream holds up its writer (measured:
+                         # the gaze step's p95 3x), and the probe must not load the path it measures
+                         n.create_subscription(Vector3Stamped, topics.GAZE_DIRECTION, gaze,
+                                               QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))]
 
 
 def _first(items, predicate):
