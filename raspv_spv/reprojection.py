@@ -245,6 +245,7 @@ class DisplayView:
         self.frames = FrameHistory()
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
+        self.gaze_rotation: np.ndarray | None = None   # the eye's G (gaze-contingent), set for each display tick
 
     def configure(self, reprojection: bool, latency_ms: float, camera_source: str = "sim") -> None:
         self.reprojection = reprojection and head_turns_camera(camera_source)
@@ -265,7 +266,9 @@ class DisplayView:
         ``map_id``; None when no frame of this map is due yet, or the current mode cannot run
         on it (a scene mode switched on before the scene arrived). ``gaze_rotation`` (3×3, eye
         optical → display optical, :func:`raspv_spv.gaze.gaze_rotation_optical`) turns the
-        sampling rays with the eye too (gaze-contingent): R = R_{C0←C1}·G."""
+        sampling rays with the eye too (gaze-contingent): R = R_{C0←C1}·G; None: :attr:`gaze_rotation`."""
+        if gaze_rotation is None:
+            gaze_rotation = self.gaze_rotation
         frame = self.frames.pick(display_stamp, self.latency_s)
         if frame is None:
             return None

@@ -18,7 +18,7 @@ from raspv_common.conversions import stamp_to_seconds
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv import staleness
-from raspv_spv.gaze import NO_GAZE, shift_image
+from raspv_spv.gaze import shift_image
 from raspv_spv.sprites_msg import sprites_to_msg
 
 REPORT_PERIOD_S = 10.0
@@ -46,12 +46,11 @@ class SpvDisplay:
             sim, map_id = self.sim, self.map_id
             plan, shown_sim, no_data = self._shown_for(sim, t0)
             scene_stamp = 0.0
-            gaze = NO_GAZE
+            gaze = self.gaze_for_tick(sim)          # eye gaze: field offset, sampling turned (view), saccade blank
             if plan.no_data:                        # the camera stopped: the no-data pattern, not its last frame
                 levels, source_stamp = no_data.levels(t0), 0.0
             else:
-                gaze = self.gaze_for_tick(sim)      # eye gaze: field offset, sampling turned, saccade blank
-                shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp), gaze.sampling_rotation)
+                shown = self.view.levels_at(shown_sim, map_id, stamp_to_seconds(header.stamp))
                 if shown is None:
                     levels, source_stamp = np.zeros(sim.count, np.uint8), 0.0
                 else:

@@ -82,8 +82,11 @@ class SpvGaze:
             self.clock.poke()                       # shown now, not at the next tick (like a head turn)
 
     def gaze_for_tick(self, sim) -> GazeDisplay:
-        """Where this display frame draws the field and how it samples (:func:`raspv_spv.gaze.gaze_display`)."""
+        """Where this display frame draws the field and how it samples (:func:`raspv_spv.gaze.gaze_display`;
+        the sampling rotation goes to the display view, :attr:`raspv_spv.reprojection.DisplayView.gaze_rotation`).
+        The no-data ring moves with the eye too: it is on the same display."""
         p = self._gaze_params
-        if p["gaze_mode"] == "ignored":
-            return NO_GAZE
-        return gaze_display(p["gaze_mode"], p["saccade_display"], self.gaze.state(time.monotonic()), sim.map.focal_px)
+        shown = NO_GAZE if p["gaze_mode"] == "ignored" else gaze_display(
+            p["gaze_mode"], p["saccade_display"], self.gaze.state(time.monotonic()), sim.map.focal_px)
+        self.view.gaze_rotation = shown.sampling_rotation     # contingent: the display's sampling turns with the eye
+        return shown
