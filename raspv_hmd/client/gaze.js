@@ -31,7 +31,7 @@
     const v = S.view, el = view();
     if (!v || !el) return null;
     const r = el.getBoundingClientRect(), eyes = S.stereo ? 2 : 1;
-    if (S.drawer === "cpu" && S.drawsLevels) {            // the canvas is the image (×2 in stereo), CSS contain
+    if (el.classList.contains("native")) {               // the canvas is the image (×2 in stereo), CSS contain
       const s = Math.min(r.width / (v.width * eyes), r.height / v.height);
       const left = r.left + (r.width - v.width * eyes * s) / 2, top = r.top + (r.height - v.height * s) / 2;
       const eye = eyes === 2 && clientX >= left + v.width * s ? 1 : 0;
