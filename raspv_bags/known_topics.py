@@ -25,6 +25,7 @@ KNOWN_TOPICS: dict[str, tuple[str, bool]] = {
     T.SIM_LOCKSTEP: ("geometry_msgs/msg/TwistStamped", False),
     T.CMD_VEL: ("geometry_msgs/msg/Twist", False),
     T.HEAD_ORIENTATION: ("geometry_msgs/msg/QuaternionStamped", False),
+    T.GAZE_DIRECTION: ("geometry_msgs/msg/Vector3Stamped", False),
     T.SCENE_STRUCTURE: ("raspv_msgs/msg/SceneStructure", False),
     T.SCENE_LABELS: ("sensor_msgs/msg/Image", False),
     T.STAIRS: ("raspv_msgs/msg/StairDetection", False),

@@ -2,12 +2,16 @@
 :class:`~raspv_common.shown_share.ShownFrame`, and their share in the configured representation
 (no ROS imports; ``raspv bag info`` prints it).
 
-Recordings made before ``PhospheneFrame`` had ``configured_mode`` / ``configured_overlays`` are
+Recordings made before ``PhospheneFrame`` had ``configured_mode`` / ``configured_overlays`` (or the
+gaze fields ``field_offset_x_px`` / ``field_offset_y_px`` / ``saccade``) are
 decoded with the definition stored in the bag (registered under a private alias, so the current
 one is untouched); their expected mode is then inferred as the most frequent mode shown other
 than ``no_data`` (:func:`raspv_common.shown_share.shown_share` says so).
 """
 from __future__ import annotations
+
+import hashlib
+import re
 
 from raspv_bags.message_types import normalise_type, typestore
 from raspv_common.shown_share import ShownFrame, ShownShare, shown_share
@@ -15,18 +19,23 @@ from raspv_common.shown_share import ShownFrame, ShownShare, shown_share
 FRAME_TOPIC = "/spv/frame"
 FRAME_TYPE = "raspv_msgs/msg/PhospheneFrame"
 LEGACY_ALIAS = "raspv_bags_recorded/msg/PhospheneFrame"    # the bag's own definition, when it predates ours
+CURRENT_FIELDS = ("configured_mode", "field_offset_x_px", "saccade")   # the newest fields, by version
 
 
 def _decode_type(definition: str) -> str:
-    """The type to decode with: ours, or the bag's stored definition when it lacks configured_mode."""
-    if not definition or "configured_mode" in definition.split("=" * 80)[0]:
+    """The type to decode with: ours, or the bag's stored definition when it lacks a field of ours
+    (recorded before ``configured_mode``, or before the gaze fields ``field_offset_*`` and
+    ``saccade``), registered under an alias named by the definition's hash."""
+    own = definition.split("=" * 80)[0]
+    if not definition or all(re.search(rf"\b{name}\b", own) for name in CURRENT_FIELDS):
         return FRAME_TYPE
+    alias = f"{LEGACY_ALIAS}{hashlib.sha1(definition.encode()).hexdigest()[:10]}"
     store = typestore()
-    if LEGACY_ALIAS not in store.fielddefs:
+    if alias not in store.fielddefs:
         from raspv_bags.message_types import _types_from_concatenated_msg
 
-        store.register(_types_from_concatenated_msg(definition, LEGACY_ALIAS))
-    return LEGACY_ALIAS
+        store.register(_types_from_concatenated_msg(definition, alias))
+    return alias
 
 
 def shown_frames(reader, topic: str = FRAME_TOPIC) -> list[ShownFrame]:

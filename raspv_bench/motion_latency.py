@@ -21,6 +21,10 @@ Steps whose views hardly differ (less than :data:`MIN_CHANGE` grey levels or the
 not counted. Times are in the server's clock (offset NTP-style from ping/pong, as the
 reference client does), so they compare with the stamps the graph carries.
 
+With ``--gaze`` the steps are the eye's (gaze yaw, 120 Hz samples, the head held straight ahead):
+the spv node's ``gaze_mode`` then moves the field on the display through the same display-on-input
+path as a head turn.
+
 Run as a process: ``python -m raspv_bench.motion_latency URL OUT.npz [--steps 20 ...]`` (what
 ``raspv bench e2e`` does); :func:`analyse_steps` reads the result.
 """
@@ -136,6 +140,32 @@ def analyse_steps(receipt: np.ndarray, stamps: np.ndarray, frames: np.ndarray,
     return results, skipped
 
 
+class GazeSteps:
+    """The eyes' version of a :class:`StepSchedule`: gaze yaw steps (head held straight ahead)."""
+
+    def __init__(self, schedule: StepSchedule) -> None:
+        self.schedule = schedule
+
+    def at(self, t: float) -> np.ndarray:
+        from raspv_spv.gaze import direction_from_angles
+        return direction_from_angles(self.schedule.yaw_deg(t), 0.0)
+
+
+def gaze_step_send_times(gazes_sent: list[tuple[float, tuple[float, float, float] | None]],
+                         min_jump_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Send times and yaws [deg] of the gaze messages that start a step (:func:`step_send_times` for the eyes)."""
+    times, yaws, last = [], [], None
+    for t, d in gazes_sent:
+        if d is None:
+            continue
+        yaw = math.degrees(math.atan2(d[1], d[0]))
+        if last is not None and abs(yaw - last) > min_jump_deg:
+            times.append(t)
+            yaws.append(yaw)
+        last = yaw
+    return np.array(times), np.array(yaws)
+
+
 def step_send_times(heads_sent: list[tuple[float, tuple[float, float, float, float]]],
                     min_jump_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """Send times [s, client clock] and yaws [deg] of the head messages that start a step (the
@@ -158,8 +188,10 @@ def reduce_frame(image: np.ndarray) -> np.ndarray:
     return cv2.resize(grey, (max(1, w // REDUCE), max(1, h // REDUCE)), interpolation=cv2.INTER_AREA)
 
 
-async def record_steps(url: str, schedule: StepSchedule, head_rate_hz: float = 60.0) -> dict:
-    """Connect as the controlling client, run ``schedule``, and return what was received:
+async def record_steps(url: str, schedule: StepSchedule, head_rate_hz: float = 60.0, gaze: bool = False,
+                       gaze_rate_hz: float = 120.0) -> dict:
+    """Connect as the controlling client, run ``schedule`` (with ``gaze``: as gaze steps at
+    ``gaze_rate_hz``, the head held straight ahead), and return what was received:
     ``receipt``/``stamps`` [s, server clock], reduced ``frames``, ``step_times`` [s, server
     clock], ``step_yaws`` [deg] and a ``report`` dict (fps, frames, clock offset, closed)."""
     from raspv_hmd.reference_client import ClientOptions, parse_endpoint, run_client
@@ -169,12 +201,15 @@ async def record_steps(url: str, schedule: StepSchedule, head_rate_hz: float = 6
     def keep(now: float, header: P.FrameHeader, image: np.ndarray) -> None:
         received.append((now, header.stamp, reduce_frame(image)))
 
+    still = StepSchedule(0, 0.0, warmup_s=0.0)
     options = ClientOptions(role="control", format="auto", window=2, duration_s=schedule.end_s + 0.3,
-                            head=schedule, head_rate_hz=head_rate_hz, ping_hz=5.0, name="raspv bench e2e",
-                            on_frame=keep)
+                            head=still if gaze else schedule, head_rate_hz=head_rate_hz, ping_hz=5.0,
+                            name="raspv bench e2e", on_frame=keep, gaze=GazeSteps(schedule) if gaze else None,
+                            gaze_rate_hz=gaze_rate_hz)
     report = await run_client(parse_endpoint(url), options)
     offset = report.clock_offset_s or 0.0
-    times, yaws = step_send_times(report.heads_sent, schedule.amplitude_deg / 2)
+    times, yaws = (gaze_step_send_times(report.gazes_sent, schedule.amplitude_deg / 2) if gaze
+                   else step_send_times(report.heads_sent, schedule.amplitude_deg / 2))
     frames = np.stack([r[2] for r in received]) if received else np.zeros((0, 1, 1), np.uint8)
     return {"receipt": np.array([r[0] for r in received]) + offset, "stamps": np.array([r[1] for r in received]),
             "frames": frames, "step_times": times + offset, "step_yaws": yaws,
@@ -192,12 +227,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hold", type=float, default=1.5)
     parser.add_argument("--warmup", type=float, default=2.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--gaze", action="store_true", help="step the gaze (120 Hz samples), not the head")
     args = parser.parse_args(argv)
     from raspv_hmd.reference_client import ClientError
 
     schedule = StepSchedule(args.steps, args.amplitude, args.hold, warmup_s=args.warmup, seed=args.seed)
     try:
-        data = asyncio.run(record_steps(args.url, schedule))
+        data = asyncio.run(record_steps(args.url, schedule, gaze=args.gaze))
     except ClientError as exc:
         print(f"motion_latency: {exc}", file=sys.stderr)
         return 1

@@ -174,6 +174,8 @@ FILE_KINDS: dict[str, FileKind] = {
                                    "segmentation model (ONNX or TorchScript) with its YAML", with_params=True),
     "learned_model": FileKind("learned_model", "raspv_spv.modes.learned:check_model",
                               "learned encoder (ONNX with RASPV metadata, from raspv learn)"),
+    "gaze_trace": FileKind("gaze_trace", "raspv_experiments.scripted_gaze:load_trace",
+                           "gaze trace CSV: t,x,y,z,valid or t,yaw_deg,pitch_deg,valid"),
     "camera_recording": FileKind("camera_recording", "raspv_camera.drivers:check_recording",
                                  "RGB-D camera SDK recording", with_params=True),
 }

@@ -24,3 +24,9 @@ LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 # IMU samples come at 100–400 Hz: keep a short backlog so a busy subscriber loses none.
 IMU_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
                      reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+# Eye-gaze samples (/gaze/direction) come at 60–1000 Hz, in bursts from a scripted subject (a
+# frame's worth at once): a writer history of a few seconds lets a reliable reader that missed a
+# burst (a full shared-memory port, repaired at the next heartbeat) still get every sample for
+# the trial's log; the spv node reads them keep-last 2 (only the newest matters to the display).
+GAZE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                      reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)

@@ -20,6 +20,7 @@ SIM_END_TRIAL = "/sim/end_trial"            # raspv_msgs/srv/EndTrial
 # Commands to the avatar / camera head.
 CMD_VEL = "/cmd_vel"                        # geometry_msgs/Twist, base frame
 HEAD_ORIENTATION = "/head/orientation"      # geometry_msgs/QuaternionStamped, head relative to base
+GAZE_DIRECTION = "/gaze/direction"          # geometry_msgs/Vector3Stamped, unit eye gaze in the head frame; (0,0,0) = invalid
 
 # Perception.
 SCENE_STRUCTURE = "/scene/structure"        # raspv_msgs/SceneStructure

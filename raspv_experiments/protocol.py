@@ -32,7 +32,8 @@ _TOP_KEYS = {"name", "description", "graph", "conditions", "tasks", "design", "r
 _TASK_KEYS = {"world", "start", "goal", "time_limit", "instructions"}
 _DESIGN_KEYS = {"repetitions", "practice", "blocks", "order", "within_block", "seed", "break_between_blocks"}
 _RECORD_KEYS = {"bag", "bag_topics", "trajectory_rate"}
-DEFAULT_BAG_TOPICS = ("/camera/pose", "/odom", "/cmd_vel", "/head/orientation", "/sim/collisions", "/spv/frame",
+DEFAULT_BAG_TOPICS = ("/camera/pose", "/odom", "/cmd_vel", "/head/orientation", "/gaze/direction", "/sim/collisions",
+                      "/spv/frame",
                       "/spv/map", "/nav/path")
 
 
@@ -439,3 +440,13 @@ def _controlled(proto: Protocol) -> dict[str, dict[str, Any]]:
             for k in values:
                 out.setdefault(node, {})[k] = entry.params.get(k, defaults[k])
     return out
+
+
+def uses_gaze(protocol: Protocol) -> bool:
+    """True when the graph's spv node or a condition sets ``gaze_mode`` other than ``ignored`` (a
+    scripted subject then moves its eyes, :mod:`raspv_experiments.scripted_gaze`)."""
+    spv = {n.name for n in protocol.graph.nodes if n.kind == "spv"}
+    modes = [n.params.get("gaze_mode", "ignored") for n in protocol.graph.nodes if n.kind == "spv"]
+    modes += [values.get("gaze_mode", "ignored") for c in protocol.conditions for node, values in c.params.items()
+              if node in spv]
+    return any(m != "ignored" for m in modes)

@@ -38,8 +38,12 @@ from raspv_experiments.session import read_jsonl
 COLUMNS = ["protocol", "subject", "condition", "task", "block", "index", "repetition", "practice", "attempt", "status",
            "outcome", "success", "completion_time_s", "duration_s", "time_limit_s", "path_length_m", "shortest_path_m",
            "path_efficiency", "collisions", "collided_with", "min_clearance_m", "head_rotation_deg",
-           "head_rotation_deg_per_s", "phosphenes_shown", "device", "own_share", "fallback_frames", "world", "policy",
-           "session", "run_dir"]
+           "head_rotation_deg_per_s", "phosphenes_shown", "device", "own_share", "fallback_frames", "gaze_fixations",
+           "gaze_mean_fixation_s", "gaze_saccades", "gaze_mean_saccade_amplitude_deg", "gaze_valid_share", "world",
+           "policy", "session", "run_dir"]
+GAZE_MEASURES = [("gaze_fixations", "fixations"), ("gaze_mean_fixation_s", "mean fixation [s]"),
+                 ("gaze_saccades", "saccades"), ("gaze_mean_saccade_amplitude_deg", "mean saccade amplitude [deg]"),
+                 ("gaze_valid_share", "gaze valid share")]
 MEASURES = [("completion_time_s", "completion time [s]", False), ("collisions", "collisions", False),
             ("path_efficiency", "path efficiency", False), ("min_clearance_m", "minimum clearance [m]", False),
             ("head_rotation_deg_per_s", "head rotation [deg/s]", False), ("success", "success rate", True)]
@@ -130,6 +134,9 @@ def tidy_rows(records: list[dict[str, Any]], pooled: dict[str, str] | None = Non
         row["own_share"] = d.get("own_share")
         row["fallbacks"] = d.get("fallbacks") or {}
         row["fallback_frames"] = (d.get("frames", 0) - d.get("own_frames", 0)) if "own_share" in d else None
+        g = r.get("gaze") or {}            # raspv_experiments.gaze_metrics (trials with eye gaze)
+        for k in ("fixations", "mean_fixation_s", "saccades", "mean_saccade_amplitude_deg", "valid_share"):
+            row[f"gaze_{k}"] = g.get(k)
         row["factors"] = r.get("factors") or {}
         for k, v in row["factors"].items():
             row[k] = v
@@ -178,6 +185,22 @@ def summary_table(rows: list[dict[str, Any]], conditions: list[str]) -> str:
                     f"<td>{success}</td>{cells}</tr>")
     return (f"<table class='summary'>{head}{''.join(body)}</table><p class='note'>Cells: median [interquartile "
             "range] over trials; completed, non-practice trials only.</p>")
+
+
+def gaze_table(rows: list[dict[str, Any]], conditions: list[str]) -> str:
+    """Eye-gaze metrics per condition (median [IQR]); empty when no trial logged gaze."""
+    if not any(r.get("gaze_fixations") is not None for r in rows):
+        return ""
+    head = "<tr><th>condition</th><th>trials with gaze</th>" + "".join(
+        f"<th>{html.escape(label)}</th>" for _, label in GAZE_MEASURES) + "</tr>"
+    body = []
+    for c in conditions:
+        t = [r for r in rows if r["condition"] == c and r.get("gaze_fixations") is not None]
+        cells = "".join(f"<td>{_median_iqr([r[k] for r in t])}</td>" for k, _ in GAZE_MEASURES)
+        body.append(f"<tr><td>{html.escape(c)}</td><td>{len(t)}</td>{cells}</tr>")
+    return (f"<h2>Eye gaze</h2><table class='gaze'>{head}{''.join(body)}</table><p class='note'>Per trial from its "
+            "gaze samples (raspv_experiments/gaze_metrics.py: velocity threshold 30 deg/s, fixations of at least "
+            "60 ms; valid share: of the trial's time). Cells: median [interquartile range] over trials.</p>")
 
 
 def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bool = False,
@@ -285,6 +308,7 @@ trials in {len(conditions)} conditions are analysed. Data: <a href="trials.csv">
 <div id="warnings">{warn}</div>
 <h2>Summary per condition</h2>
 {summary_table(data, conditions)}
+<div id="gaze">{gaze_table(data, conditions)}</div>
 <h2>Per subject</h2>
 {extra["subjects"]}
 <h2>Figures</h2>

@@ -32,8 +32,9 @@ from raspv_bringup.graph import Graph, NodeEntry
 from raspv_bringup.supervisor import Supervisor, _die_with_parent
 from raspv_common.shown_share import ShownFrame, shown_share
 from raspv_experiments.design import PlannedTrial, plan_session, subject_number
+from raspv_experiments.gaze_metrics import trial_gaze_metrics
 from raspv_experiments.metrics import trajectory_record, trial_metrics
-from raspv_experiments.protocol import Protocol, Task
+from raspv_experiments.protocol import Protocol, Task, uses_gaze
 from raspv_experiments.runner_node import GraphClient
 from raspv_experiments.session import SessionError, SessionFolder, now_iso
 from raspv_experiments.session_control import ExperimenterControl, TrialMonitor, ViewState
@@ -137,7 +138,9 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
     if options.scripted:
         if not any(n.kind == "spv" for n in nodes):
             raise SessionError(f"{protocol.path}: graph: a scripted subject needs an 'spv' node (it sees /spv/frame)")
-        params = {**subject_ability(seed), "policy": options.policy, "seed": seed, **options.subject_params}
+        # its eyes move (scripted gaze) when the spv node uses the gaze in any condition
+        eyes = {"gaze": "model"} if uses_gaze(protocol) else {}
+        params = {**subject_ability(seed), "policy": options.policy, "seed": seed, **eyes, **options.subject_params}
         if lockstep:
             params["use_sim_time"] = True
         nodes.append(NodeEntry("subject", "subject", False, params))
@@ -439,6 +442,9 @@ class SessionRunner:
                                     f"task:{task.goal.label}", shortest, geometry)
             record["metrics"] = metrics.as_dict()
             record["trajectory"] = trajectory_record(run_dir, start_t, end_t)
+            gaze = trial_gaze_metrics(run_dir, start_t, end_t)     # when the trial logged eye gaze
+            if gaze is not None:
+                record["gaze"] = gaze.as_dict()
         if self.options.bag if self.options.bag is not None else self.protocol.record.bag:
             record["bag"] = str(run_dir / "bag")
         return record

@@ -12,6 +12,14 @@ its instructions come; the instructions of a scripted session also say where the
 the start (``goal_from_start`` [m], x ahead, y left: what a person is told) and the sim time
 ``after`` which the trial's frames come (earlier frames still in flight are answered but not
 seen), so a trial's commands depend on that trial's frames only.
+
+With ``gaze`` ``model`` or ``trace`` it also moves its eyes (:mod:`raspv_experiments.scripted_gaze`):
+each trial plays a gaze trace from the trial's start (the model seeded by the trial's seed), and
+every frame publishes the samples whose sim time came on ``/gaze/direction`` (Vector3Stamped,
+head frame, stamped in sim time; (0, 0, 0) while it blinks), for the spv node's ``gaze_mode``
+and the trial's log. When the field is drawn displaced (``PhospheneFrame.field_offset_*``) it
+sees each phosphene where it is drawn, not where it samples (the phosphene drawn nearest to
+each position of its map): gaze-locked content is then seen in the wrong place.
 """
 from __future__ import annotations
 
@@ -19,14 +27,16 @@ import json
 import math
 
 import numpy as np
-from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, TwistStamped
+from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, TwistStamped, Vector3, Vector3Stamped
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.node import RaspvNode, run_node
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
+from raspv_experiments.scripted_gaze import (GazeModelConfig, GazeScript, displayed_layout_index, load_trace,
+                                             model_trace)
 from raspv_experiments.subject_params import PARAMS
 from raspv_sim.avatar import head_quaternion
 
@@ -53,6 +63,10 @@ class SubjectNode(RaspvNode):
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_step = self.create_publisher(TwistStamped, topics.SIM_LOCKSTEP, COMMAND_QOS)
         self.pub_response = self.create_publisher(String, topics.EXPERIMENT_RESPONSE, EVENT_QOS)
+        self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, GAZE_QOS)
+        self.gaze: GazeScript | None = None
+        self._seen_at: tuple[tuple, np.ndarray] | None = None      # ((map id, offset), displayed index)
+        self.spacing_px = 1.0
         self.create_subscription(PhospheneMap, topics.SPV_MAP, self.on_map, LATCHED_QOS)
         self.create_subscription(PhospheneFrame, topics.SPV_FRAME, self.on_frame, SENSOR_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
@@ -64,10 +78,19 @@ class SubjectNode(RaspvNode):
                                       goal=self.goal)
 
     def on_parameters(self, changes):
-        self._new_policy({**self.params, **changes})
+        merged = {**self.params, **changes}
+        self._new_policy(merged)
+        if {"gaze", "gaze_trace", "gaze_rate"} & set(changes):
+            try:
+                self.gaze = None                    # (re)started from the next frame
+                if merged["gaze"] == "trace" and merged["gaze_trace"]:
+                    load_trace(merged["gaze_trace"])
+            except ValueError as exc:
+                return str(exc)
         return None
 
     def on_map(self, msg: PhospheneMap) -> None:
+        self.spacing_px = float(msg.spacing_x_px) or 1.0
         self.layout = PhospheneLayout(np.asarray(msg.x, float), np.asarray(msg.y, float), int(msg.width),
                                       int(msg.height), float(msg.focal_px), int(msg.map_id))
         self._new_policy(self.params)
@@ -87,9 +110,40 @@ class SubjectNode(RaspvNode):
         self.goal = (float(goal[0]), float(goal[1])) if isinstance(goal, list) and len(goal) == 2 else None
         self.after = float(info.get("after", -1.0))
         self._new_policy(self.params)
+        self.gaze = self._gaze_script(self.params, self.after) if self.after >= 0 else None   # else from the next frame
         self._publish_head(math.radians(self.params["head_pitch_deg"]))     # the head it will hold, before starting
         if self.params["auto_start"]:
             self.pub_response.publish(String(data=json.dumps({"action": "start", "id": key, "by": "subject"})))
+
+    def _gaze_script(self, p: dict, origin: float) -> GazeScript | None:
+        """The trial's eye movements (None: ``gaze`` none), played from sim time ``origin``."""
+        if p["gaze"] == "model":
+            duration = 600.0                        # s; a longer trial plays it again
+            return GazeScript(model_trace(duration, self.trial_seed, GazeModelConfig(rate_hz=p["gaze_rate"])), origin)
+        if p["gaze"] == "trace" and p["gaze_trace"]:
+            return GazeScript(load_trace(p["gaze_trace"]), origin)
+        return None
+
+    def _publish_gaze(self, now: float) -> None:
+        """The gaze samples up to sim time ``now`` [s]."""
+        if self.gaze is None:
+            return
+        for stamp, direction in self.gaze.due(now):
+            x, y, z = direction if direction is not None else (0.0, 0.0, 0.0)
+            self.pub_gaze.publish(Vector3Stamped(header=self.header("head", stamp),
+                                                 vector=Vector3(x=float(x), y=float(y), z=float(z))))
+
+    def _as_seen(self, msg: PhospheneFrame, brightness: np.ndarray) -> np.ndarray:
+        """The brightness at each phosphene's place on the display when the field is drawn shifted."""
+        offset = (round(msg.field_offset_x_px), round(msg.field_offset_y_px))
+        if offset == (0, 0):
+            return brightness
+        key = (msg.map_id, offset)
+        if self._seen_at is None or self._seen_at[0] != key:
+            centres = np.column_stack([self.layout.x, self.layout.y])
+            self._seen_at = (key, displayed_layout_index(centres, offset, self.spacing_px))
+        index = self._seen_at[1]
+        return np.where(index >= 0, brightness[np.maximum(index, 0)], 0.0)
 
     def on_frame(self, msg: PhospheneFrame) -> None:
         command = Command(0.0, 0.0, math.radians(self.params["head_pitch_deg"]))   # standing, head held
@@ -97,9 +151,14 @@ class SubjectNode(RaspvNode):
         if self.policy is not None and msg.map_id == self.layout.map_id and t > self.after + 1e-6:
             brightness = np.asarray(msg.brightness, dtype=float)
             if brightness.shape == self.layout.x.shape:
+                brightness = self._as_seen(msg, brightness)
                 self.policy.show(msg.mode, msg.overlays)
                 command = self.policy.act(brightness, t)
         self.frames += 1
+        if t > self.after + 1e-6:
+            if self.gaze is None and self.params["gaze"] != "none":
+                self.gaze = self._gaze_script(self.params, t)
+            self._publish_gaze(t)                   # its eyes moved up to this frame (sim time)
         twist = Twist()
         twist.linear.x, twist.angular.z = command.linear, command.angular
         self._publish_head(command.head_pitch)

@@ -27,4 +27,10 @@ PARAMS = [
           minimum=0.01, maximum=1.0),
     Param("perception_noise", 0.03, "std. dev. of the noise added to every brightness read", minimum=0.0, maximum=1.0),
     Param("auto_start", True, "press 'start' as soon as instructions are shown"),
+    Param("gaze", "none", "eye gaze it publishes on /gaze/direction: none, model (fixations and saccades of "
+          "raspv_experiments/scripted_gaze.py, seeded per trial) or trace (the file gaze_trace)",
+          choices=("none", "model", "trace")),
+    Param("gaze_trace", "", "gaze trace CSV (t,x,y,z,valid or t,yaw_deg,pitch_deg,valid) for gaze: trace",
+          file_kind="gaze_trace"),
+    Param("gaze_rate", 120.0, "sampling rate of the gaze model", minimum=10.0, maximum=1000.0, unit="Hz"),
 ]

@@ -126,6 +126,8 @@ class BridgeFrames:
     def on_map(self, msg: PhospheneMap) -> None:
         self._map_msg = msg
         self._offer_sprites()
+        self.server.show_view(width=int(msg.width), height=int(msg.height), focal_px=float(msg.focal_px),
+                              spacing_px=float(msg.spacing_x_px), fov_deg=float(msg.fov_deg))   # gaze from a point
 
     def _offer_sprites(self) -> None:
         """Hand the clients the atlas of the current map with its no-data ring (both latched
@@ -148,8 +150,9 @@ class BridgeFrames:
         sprite_levels = np.frombuffer(msg.sprite_levels, np.uint8) if len(msg.sprite_levels) else None
         flags = (FRAME_NO_DATA if msg.mode == staleness.NO_DATA else 0) | (
             FRAME_FALLBACK if msg.configured_mode and msg.mode != msg.configured_mode else 0)
+        offset = (int(round(msg.field_offset_x_px)), int(round(msg.field_offset_y_px)))     # eye gaze
         payload = pack_levels_payload(msg.map_id, frame_weights(brightness, sprite_levels, atlas.levels, atlas.num_levels),
-                                      sprite_levels, atlas.levels, flags)
+                                      sprite_levels, atlas.levels, flags, offset)
         self.server.submit_levels(msg.map_id, payload, stamp_to_seconds(msg.header.stamp) or time.time(),
                                   atlas.width, atlas.height, atlas.green)
 

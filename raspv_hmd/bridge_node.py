@@ -20,17 +20,18 @@ import threading
 import time
 from typing import Any, Callable
 
-from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist
+from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, Vector3, Vector3Stamped
 from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
-from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS
+from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from raspv_hmd.audio_cues import CueSettings
 from raspv_hmd.bridge_frames import BridgeFrames
 from raspv_hmd.bridge_params import PARAMS
 from raspv_hmd.cue_relay import CueRelay
+from raspv_hmd.sender_clock import SenderClock
 from raspv_hmd.keymap import key_change, parameters_needed, uses_device_value
 from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig, ServerError
 from raspv_spv.device import DeviceError, load_device
@@ -59,6 +60,8 @@ class BridgeNode(BridgeFrames, RaspvNode):
             raise ConfigurationError(str(exc)) from None
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
+        self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, GAZE_QOS)   # every sample kept for recorders
+        self.gaze_clocks: dict[int, SenderClock] = {}            # per client: its eye tracker's timing
         self.spv = ParamClient(self, p["spv_node"])
         self.requests: collections.deque[tuple[int, Callable[[int], None], float]] = collections.deque()
         self.requests_lock = threading.Lock()
@@ -69,6 +72,7 @@ class BridgeNode(BridgeFrames, RaspvNode):
         self._request_timer = self.create_timer(0.1, self._check_requests)
         self._setup_frames()
         callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
+                              on_gaze=self.on_gaze,
                               on_param=self.on_param, on_event=lambda text: self.get_logger().info(text),
                               on_experiment=self.on_experiment, on_clients=self._clients_changed.trigger)
         try:
@@ -104,6 +108,23 @@ class BridgeNode(BridgeFrames, RaspvNode):
     def on_head(self, q: tuple[float, float, float, float], _client_time: float | None) -> None:
         x, y, z, w = q
         self.pub_head.publish(QuaternionStamped(header=self.header("base"), quaternion=Quaternion(x=x, y=y, z=z, w=w)))
+
+    def on_gaze(self, client: int, direction: tuple[float, float, float] | None, client_time: float | None,
+                arrival: float) -> None:
+        """``/gaze/direction``: the unit gaze in the head frame, (0, 0, 0) for an invalid sample,
+        stamped with the client's time mapped onto ours (:mod:`raspv_hmd.sender_clock`)."""
+        if client_time is None:
+            stamp = arrival
+        else:
+            clock = self.gaze_clocks.get(client)
+            if clock is None:
+                if len(self.gaze_clocks) > 64:
+                    self.gaze_clocks.clear()
+                clock = self.gaze_clocks[client] = SenderClock()
+            stamp = clock.map(client_time, arrival)
+        header = self.header("head", stamp)
+        x, y, z = direction if direction is not None else (0.0, 0.0, 0.0)
+        self.pub_gaze.publish(Vector3Stamped(header=header, vector=Vector3(x=x, y=y, z=z)))
 
     def on_cmd_vel(self, linear: float, angular: float) -> None:
         vmax, wmax = self.params["max_linear"], self.params["max_angular"]

@@ -21,6 +21,7 @@ STATIC_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
                 "/levels_renderer.js": ("levels_renderer.js", "text/javascript; charset=utf-8"),
                 "/levels_kernels.wasm": ("levels_kernels.wasm", "application/wasm"),
                 "/audio_cues.js": ("audio_cues.js", "text/javascript; charset=utf-8"),
+                "/gaze.js": ("gaze.js", "text/javascript; charset=utf-8"),
                 "/style.css": ("style.css", "text/css; charset=utf-8")}
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 CSP = ("default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' blob: data:; "

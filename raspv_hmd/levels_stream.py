@@ -20,7 +20,9 @@ Messages (little-endian; the reference is docs/hmd.md "Levels stream"):
 - a frame: the usual frame header (:data:`raspv_hmd.protocol.FRAME_HEADER`, format
   :data:`~raspv_hmd.protocol.FORMAT_LEVELS`), then :data:`LEVELS_HEADER` and ``N`` uint16 weights
   (weight × :data:`WEIGHT_SCALE`) and, for sprite models with one sprite per level, ``N`` uint8
-  sprite levels (0: not drawn; column ``i·levels + level − 1``).
+  sprite levels (0: not drawn; column ``i·levels + level − 1``), then, with flag
+  :data:`FRAME_OFFSET`, the field's offset on the display (i16 dx right, i16 dy down, px: eye gaze,
+  spv ``gaze_mode``): the image is drawn translated by it, black where nothing moved in.
 """
 from __future__ import annotations
 
@@ -40,6 +42,8 @@ LEVELS_HEADER = struct.Struct("<IIBBxx")
 WEIGHT_SCALE = 16384.0          # weights travel as uint16: 0 … 4 in steps of 6e-5 (≤ 0.02 grey levels)
 FRAME_FALLBACK = 1              # the frame shows a fallback, not the configured mode (stale inputs)
 FRAME_NO_DATA = 2               # the frame is the no-data ring
+FRAME_OFFSET = 4                # the payload ends with the field's offset: i16 dx, i16 dy [px] (eye gaze)
+OFFSET_TRAILER = struct.Struct("<hh")
 
 
 def sprites_message(atlas: SpriteAtlas, ring: np.ndarray | None = None) -> bytes:
@@ -75,24 +79,37 @@ def parse_sprites_message(data: bytes | memoryview) -> tuple[SpriteAtlas, np.nda
 
 
 def pack_levels_payload(map_id: int, weights: np.ndarray, sprite_levels: np.ndarray | None, levels: int,
-                        flags: int = 0) -> bytes:
-    """The payload of a levels frame (after the frame header)."""
+                        flags: int = 0, offset_px: tuple[int, int] = (0, 0)) -> bytes:
+    """The payload of a levels frame (after the frame header); a non-zero field ``offset_px``
+    (dx right, dy down, whole px: eye gaze) is appended with :data:`FRAME_OFFSET` set."""
     w = np.asarray(weights, dtype=np.float32)
     q = np.clip(np.rint(np.nan_to_num(w) * WEIGHT_SCALE), 0, 65535).astype("<u2")
+    dx, dy = (max(-32768, min(32767, int(v))) for v in offset_px)
+    if dx or dy:
+        flags |= FRAME_OFFSET
     out = LEVELS_HEADER.pack(map_id, len(w), levels, flags) + q.tobytes()
     if levels > 1:
         out += np.asarray(sprite_levels if sprite_levels is not None else np.zeros(len(w)), dtype=np.uint8).tobytes()
+    if flags & FRAME_OFFSET:
+        out += OFFSET_TRAILER.pack(dx, dy)
     return out
 
 
 def unpack_levels_payload(data: bytes | memoryview) -> tuple[int, np.ndarray, np.ndarray | None, int]:
-    """(map_id, weights (N,) float32, sprite levels or None, flags) of a levels frame's payload."""
+    """(map_id, weights (N,) float32, sprite levels or None, flags) of a levels frame's payload
+    (the field offset: :func:`levels_offset`)."""
     if len(data) < LEVELS_HEADER.size:
         raise P.ProtocolError("bad_frame", "levels payload shorter than its header")
     map_id, n, levels, flags = LEVELS_HEADER.unpack_from(data)
-    need = LEVELS_HEADER.size + 2 * n + (n if levels > 1 else 0)
+    need = LEVELS_HEADER.size + 2 * n + (n if levels > 1 else 0) + (OFFSET_TRAILER.size if flags & FRAME_OFFSET else 0)
     if len(data) != need:
         raise P.ProtocolError("bad_frame", f"levels payload of {len(data)} bytes for {n} phosphenes (expected {need})")
     w = np.frombuffer(data, "<u2", n, LEVELS_HEADER.size).astype(np.float32) / np.float32(WEIGHT_SCALE)
     lv = np.frombuffer(data, np.uint8, n, LEVELS_HEADER.size + 2 * n).copy() if levels > 1 else None
     return map_id, w, lv, flags
+
+
+def levels_offset(data: bytes | memoryview) -> tuple[int, int]:
+    """The field offset (dx right, dy down) [px] of a levels payload ((0, 0) without one)."""
+    flags = LEVELS_HEADER.unpack_from(data)[3]
+    return OFFSET_TRAILER.unpack_from(data, len(data) - OFFSET_TRAILER.size) if flags & FRAME_OFFSET else (0, 0)

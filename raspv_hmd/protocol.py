@@ -70,6 +70,15 @@ class Head:
 
 
 @dataclass(frozen=True)
+class Gaze:
+    """Eye gaze: a unit direction in the head frame (x forward, y left, z up), or None when the
+    tracker has no valid sample (blink, lost eye); ``client_time`` the sender's clock [s]."""
+
+    direction: tuple[float, float, float] | None
+    client_time: float | None = None
+
+
+@dataclass(frozen=True)
 class Twist:
     linear: float                  # m/s forward
     angular: float                 # rad/s, positive turns left
@@ -110,8 +119,8 @@ class Experiment:
 
 
 EXPERIMENT_ACTIONS = ("start", "abort")
-ClientMessage = Hello | Head | Twist | Key | SetParam | Ack | Ping | Control | Experiment
-CONTROL_MESSAGES = (Head, Twist, Key, SetParam, Experiment)   # only the controlling client may send these
+ClientMessage = Hello | Head | Gaze | Twist | Key | SetParam | Ack | Ping | Control | Experiment
+CONTROL_MESSAGES = (Head, Gaze, Twist, Key, SetParam, Experiment)   # only the controlling client may send these
 
 
 def _number(obj: dict, field: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -175,6 +184,72 @@ def quaternion_to_rpy(q: tuple[float, float, float, float]) -> tuple[float, floa
     return roll, pitch, yaw
 
 
+GAZE_FRAMES = ("head", "xr", "unity")
+
+
+def gaze_to_head(v: tuple[float, float, float], frame: str) -> tuple[float, float, float]:
+    """A gaze direction in ``frame`` → the head frame (x forward, y left, z up). ``xr``: OpenXR /
+    WebXR eye space (x right, y up, −z forward); ``unity``: x right, y up, z forward (left-handed)."""
+    x, y, z = v
+    if frame == "xr":
+        return (-z, -x, y)
+    if frame == "unity":
+        return (z, -x, y)
+    return (x, y, z)
+
+
+def _gaze_vector(obj: dict, field: str) -> tuple[float, float, float] | None:
+    """A gaze direction field: 3 finite numbers not all zero, or null (no valid sample)."""
+    v = obj.get(field)
+    if v is None:
+        return None
+    if not isinstance(v, (list, tuple)) or len(v) != 3 or any(
+            isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) for c in v):
+        raise ProtocolError("bad_field", f"'{field}' must be a direction [x, y, z] (or null), got {v!r}")
+    n = math.sqrt(sum(float(c) * float(c) for c in v))
+    if n < 1e-6:
+        raise ProtocolError("bad_field", f"'{field}' has zero length; send \"valid\": false for a missing sample")
+    return tuple(float(c) / n for c in v)
+
+
+def parse_gaze(obj: dict) -> Gaze:
+    """A ``gaze`` message: ``dir`` (combined, cyclopean) or ``left`` / ``right`` (each eye; the
+    combined gaze is their normalised mean, or the one valid eye), ``frame``, ``valid``
+    (default true; false: no usable sample), ``t``; per eye ``left_valid`` / ``right_valid``."""
+    t = _number(obj, "t") if "t" in obj else None
+    frame = _string(obj, "frame", "head", choices=GAZE_FRAMES)
+    valid = obj.get("valid", True)
+    if not isinstance(valid, bool):
+        raise ProtocolError("bad_field", f"'valid' must be true or false, got {valid!r}")
+    if "dir" in obj:
+        d = _gaze_vector(obj, "dir")
+    elif "left" in obj or "right" in obj:
+        eyes = []
+        for eye in ("left", "right"):
+            v = _gaze_vector(obj, eye)
+            ok = obj.get(f"{eye}_valid", True)
+            if not isinstance(ok, bool):
+                raise ProtocolError("bad_field", f"'{eye}_valid' must be true or false, got {ok!r}")
+            if v is not None and ok:
+                eyes.append(v)
+        d = None
+        if eyes:
+            s = [sum(e[i] for e in eyes) for i in range(3)]
+            n = math.sqrt(sum(c * c for c in s))
+            d = tuple(c / n for c in s) if n > 1e-6 else None
+    elif valid:
+        raise ProtocolError("bad_field", "a gaze message needs 'dir' [x, y, z] or 'left'/'right', or valid: false")
+    else:
+        d = None
+    if not valid or d is None:
+        return Gaze(None, t)
+    d = gaze_to_head(d, frame)
+    if d[0] <= 0.17:        # more than ~80 deg from straight ahead: not an eye's gaze
+        raise ProtocolError("bad_field", f"gaze {[round(c, 3) for c in d]} (head frame: x forward) points more than "
+                                         "80 deg from straight ahead")
+    return Gaze(d, t)
+
+
 def parse_client_message(data: str | bytes) -> ClientMessage:
     """Decode and validate one client message, or raise :class:`ProtocolError`."""
     if len(data) > MAX_CLIENT_MESSAGE:
@@ -201,6 +276,8 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
             r, p, y = (_number({"rpy": v}, "rpy", -MAX_HEAD_RPY, MAX_HEAD_RPY) for v in rpy)
             return Head(rpy_to_quaternion(r, p, y), t)
         raise ProtocolError("bad_field", "a head message needs 'q' [x, y, z, w] or 'rpy' [roll, pitch, yaw]")
+    if kind == "gaze":
+        return parse_gaze(obj)
     if kind == "twist":
         return Twist(_number(obj, "linear", -100.0, 100.0), _number(obj, "angular", -100.0, 100.0))
     if kind == "key":

@@ -14,7 +14,7 @@ import math
 import socket
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Protocol
+from typing import Any, Callable, Protocol
 from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
@@ -83,6 +83,8 @@ class ClientOptions:
     max_frames: int | None = None     # stop after this many frames
     head: HeadScript | None = field(default_factory=HeadScript)
     head_rate_hz: float = 50.0
+    gaze: Any = None                  # an object with at(t) → unit gaze direction (head frame) or None; None: no gaze
+    gaze_rate_hz: float = 120.0
     ping_hz: float = 2.0
     name: str = "raspv hmd-client"
     keep_last_frame: bool = False
@@ -104,6 +106,7 @@ class ClientReport:
     rtt_ms: list[float] = field(default_factory=list)
     clock_offset_s: float | None = None                       # server clock − this clock
     heads_sent: list[tuple[float, tuple[float, float, float, float]]] = field(default_factory=list)
+    gazes_sent: list[tuple[float, tuple[float, float, float] | None]] = field(default_factory=list)
     messages: list[dict] = field(default_factory=list)        # status/refused/role/bye from the server
     closed: str = ""
     last_frame: np.ndarray | None = None
@@ -292,6 +295,18 @@ async def run_client(endpoint: Endpoint, options: ClientOptions | None = None, c
             report.heads_sent.append((t, q))
             await _sleep_or_done(done, period)
 
+    async def move_eyes() -> None:
+        if opt.gaze is None or opt.role != "control":
+            return
+        period = 1.0 / opt.gaze_rate_hz
+        while not done.is_set():
+            t = time.time()
+            d = opt.gaze.at(t - start)
+            await conn.send(P.client_message("gaze", dir=[float(c) for c in d], t=t) if d is not None
+                            else P.client_message("gaze", valid=False, t=t))
+            report.gazes_sent.append((t, None if d is None else tuple(float(c) for c in d)))
+            await _sleep_or_done(done, period)
+
     async def ping() -> None:
         while not done.is_set():
             t = time.time()
@@ -303,7 +318,7 @@ async def run_client(endpoint: Endpoint, options: ClientOptions | None = None, c
         await _sleep_or_done(done, opt.duration_s)
         done.set()
 
-    tasks = [asyncio.create_task(c) for c in (receive(), move_head(), ping(), timer())]
+    tasks = [asyncio.create_task(c) for c in (receive(), move_head(), move_eyes(), ping(), timer())]
     try:
         await done.wait()
     finally:

@@ -101,6 +101,8 @@ class Callbacks:
 
     on_head_orientation: Callable[[tuple[float, float, float, float], float | None], None] = _noop
     on_cmd_vel: Callable[[float, float], None] = _noop          # (m/s, rad/s), base frame
+    # (client id, unit direction in the head frame or None when invalid, client time or None, receipt wall time)
+    on_gaze: Callable[[int, tuple[float, float, float] | None, float | None, float], None] = _noop
     on_key: Callable[[int, str], None] = _noop                  # (client id, key)
     on_param: Callable[[int, str, Any], None] = _noop           # (client id, name, value)
     on_event: Callable[[str], None] = _noop                     # connection events, for the log
@@ -138,6 +140,7 @@ class HeadsetServer:
         # why the levels stream cannot be sent (then images): until the owner submits sprites, none
         self._levels_unavailable = "no sprites submitted"
         self._instructions = ""                  # the latest experiment instructions (JSON text)
+        self._view = ""                          # the display's geometry (JSON text, show_view)
         self._seq = 0
         self._seq_lock = threading.Lock()
         self._png_clients = 0
@@ -337,6 +340,13 @@ class HeadsetServer:
         self._instructions = P.server_message("instructions", **(info or {"id": "", "text": "", "waiting": False}))
         self._send(self._instructions)
 
+    def show_view(self, **fields: Any) -> None:
+        """The phosphene display's geometry for every client (and later ones): ``width``, ``height``
+        [px], ``focal_px`` (f_P of K_P), ``spacing_px`` — what a client needs to turn a point on
+        the display into a gaze direction (the browser's mouse gaze and calibration targets)."""
+        self._view = P.server_message("view", **fields)
+        self._send(self._view)
+
     def broadcast(self, kind: str, **fields: Any) -> None:
         """Send a JSON message of type ``kind`` to every client (e.g. the audio ``cues``)."""
         self._send(P.server_message(kind, **fields))
@@ -481,6 +491,8 @@ class HeadsetServer:
             await self._announce_roles()
         if self._instructions:
             await self._say(s, self._instructions)
+        if self._view:
+            await self._say(s, self._view)
         if self._latest is not None or self._latest_levels is not None:
             s.frame_ready.set()
         sender = asyncio.create_task(self._sender(s))
@@ -661,6 +673,8 @@ class HeadsetServer:
             return
         if isinstance(msg, P.Head):
             self._call(self.callbacks.on_head_orientation, msg.quaternion, msg.client_time)
+        elif isinstance(msg, P.Gaze):
+            self._call(self.callbacks.on_gaze, s.id, msg.direction, msg.client_time, time.time())
         elif isinstance(msg, P.Twist):
             self._deadman.input(msg.linear, msg.angular, time.monotonic())
             self._call(self.callbacks.on_cmd_vel, msg.linear, msg.angular)

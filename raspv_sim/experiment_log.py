@@ -10,6 +10,10 @@ A run directory ``<log_dir>/<world>-<YYYYmmdd-HHMMSS>/`` (or ``<log_dir>/<run_na
   commanded ``linear`` [m/s] and ``angular`` [rad/s], cumulative ``path_length`` [m];
 - ``events.jsonl``    one JSON object per line: ``collision`` (object name and class, contact
   point, normal, speed, count) and ``goal`` (name) events with their time ``t`` (since the start);
+- ``gaze.csv``        every eye-gaze sample received (``/gaze/direction``), when there are any: ``t``
+  [s since the log started, sim time of receipt], ``stamp`` [s, the sample's own time: its
+  intervals are the eye tracker's], unit direction ``x, y, z`` in the head frame (x forward, y
+  left, z up; empty when invalid), ``valid`` (0/1);
 - ``summary.json`` and ``trajectory.png`` — written when the run ends, and rebuilt from the
   files above by :func:`summarize_run` / ``raspv sim plot RUN_DIR`` after a killed run.
 
@@ -21,12 +25,14 @@ import csv
 import datetime as _dt
 import json
 import math
+import threading
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
 from raspv_sim.collision_events import CollisionEvent
 
+GAZE_FIELDS = ("t", "stamp", "x", "y", "z", "valid")
 TRAJECTORY_FIELDS = ("t", "x", "y", "z", "yaw", "head_roll", "head_pitch", "head_yaw", "camera_x", "camera_y",
                      "camera_z", "linear", "angular", "path_length")
 
@@ -79,6 +85,8 @@ class ExperimentLog:
         self._events: TextIO = open(run / "events.jsonl", "w", buffering=1)
         self._next_t = 0.0
         self._last_t = -math.inf
+        self._gaze: TextIO | None = None          # gaze.csv, opened with the first sample
+        self._gaze_lock = threading.Lock()        # samples are written from another thread than close()
         self.closed = False
 
     def sample(self, s: TrajectorySample, force: bool = False) -> bool:
@@ -104,6 +112,19 @@ class ExperimentLog:
                      "position": [round(v, 4) for v in e.position], "normal": [round(v, 4) for v in e.normal],
                      "speed": round(e.speed, 4), "count": e.count})
 
+    def gaze(self, t: float, stamp: float, direction: tuple[float, float, float] | None) -> None:
+        """One eye-gaze sample received at sim time ``t``, stamped ``stamp`` [s]; ``direction`` a unit
+        vector in the head frame, None when invalid."""
+        xyz = ",".join(f"{v:.6f}" for v in direction) if direction is not None else ",,"
+        with self._gaze_lock:
+            if self.closed:
+                return
+            if self._gaze is None:
+                self._gaze = open(self.dir / "gaze.csv", "w", buffering=1)
+                self._gaze.write(",".join(GAZE_FIELDS) + "\n")
+            self._gaze.write(f"{t - self.t0:.4f},{stamp:.6f},{xyz},{int(direction is not None)}\n")
+            self._gaze.flush()
+
     def goal(self, name: str, t: float) -> None:
         self._event({"t": round(t - self.t0, 4), "event": "goal", "name": name})
 
@@ -111,7 +132,10 @@ class ExperimentLog:
         """Close the files and write ``summary.json``; returns the summary."""
         if self.closed:
             return summarize_run(self.dir)
-        self.closed = True
+        with self._gaze_lock:
+            self.closed = True
+            if self._gaze is not None:
+                self._gaze.close()
         self._traj.close()
         self._events.close()
         return summarize_run(self.dir)
@@ -135,6 +159,28 @@ def read_trajectory(run_dir: str | Path) -> dict[str, list[float]]:
             for k, v in zip(TRAJECTORY_FIELDS, values):
                 cols[k].append(v)
     return cols
+
+
+def read_gaze(run_dir: str | Path) -> dict[str, list[float]]:
+    """``gaze.csv`` as columns (``t`` since the log started, ``stamp``, ``x``, ``y``, ``z`` NaN when
+    invalid, ``valid`` 0/1); empty columns when the run logged no gaze. A last line cut by a kill is skipped."""
+    path = Path(run_dir) / "gaze.csv"
+    out: dict[str, list[float]] = {k: [] for k in GAZE_FIELDS}
+    if not path.is_file():
+        return out
+    with open(path, newline="") as f:
+        rows = csv.reader(f)
+        next(rows, None)
+        for row in rows:
+            if len(row) != len(GAZE_FIELDS):
+                continue
+            try:
+                values = [float(v) if v != "" else math.nan for v in row]
+            except ValueError:
+                continue
+            for k, v in zip(GAZE_FIELDS, values):
+                out[k].append(v)
+    return out
 
 
 def read_events(run_dir: str | Path) -> list[dict[str, Any]]:

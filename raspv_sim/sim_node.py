@@ -39,6 +39,7 @@ from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
 from raspv_sim.lockstep import Lockstep
+from raspv_sim.sim_node_gaze import SimGazeLog
 from raspv_sim.sim_params import PARAMS
 from raspv_sim.simulator import SimConfig, Simulation
 from raspv_sim.world_spec import GoalSpec, WorldFileError
@@ -72,7 +73,7 @@ def sim_config(p: dict) -> SimConfig:
                      collision_debounce=p["collision_debounce"], seed=p["seed"])
 
 
-class SimNode(RaspvNode):
+class SimNode(SimGazeLog, RaspvNode):
     def __init__(self) -> None:
         super().__init__("sim", PARAMS)
         p = self.params
@@ -106,6 +107,7 @@ class SimNode(RaspvNode):
         self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
         self._commands = [self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS),
                           self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
+        self._setup_gaze_log()              # every eye-gaze sample into the run's log (gaze.csv), while one is written
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf
         self.head: tuple[float, float, float, float] | None = None     # the last head orientation received
@@ -314,6 +316,7 @@ class SimNode(RaspvNode):
                                  speed=float(e.speed), count=int(e.count))
 
     def close(self) -> None:
+        self._close_gaze_log()
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         sim = getattr(self, "sim", None)
         if sim is None:

@@ -245,6 +245,7 @@ class DisplayView:
         self.frames = FrameHistory()
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
+        self.gaze_rotation: np.ndarray | None = None   # the eye's G (gaze-contingent), set for each display tick
 
     def configure(self, reprojection: bool, latency_ms: float, camera_source: str = "sim") -> None:
         self.reprojection = reprojection and head_turns_camera(camera_source)
@@ -258,11 +259,16 @@ class DisplayView:
         """The newest frame added (whatever the device latency), or None."""
         return self.frames.newest()
 
-    def levels_at(self, sim, map_id: int, display_stamp: float) -> tuple[np.ndarray, DisplayFrame] | None:
+    def levels_at(self, sim, map_id: int, display_stamp: float,
+                  gaze_rotation: np.ndarray | None = None) -> tuple[np.ndarray, DisplayFrame] | None:
         """(levels (N,) uint8, the frame they show: its capture stamp, inputs) at ``display_stamp`` with
         simulator ``sim`` (a :class:`~raspv_spv.simulator.PhospheneSimulator`) and map
         ``map_id``; None when no frame of this map is due yet, or the current mode cannot run
-        on it (a scene mode switched on before the scene arrived)."""
+        on it (a scene mode switched on before the scene arrived). ``gaze_rotation`` (3×3, eye
+        optical → display optical, :func:`raspv_spv.gaze.gaze_rotation_optical`) turns the
+        sampling rays with the eye too (gaze-contingent): R = R_{C0←C1}·G; None: :attr:`gaze_rotation`."""
+        if gaze_rotation is None:
+            gaze_rotation = self.gaze_rotation
         frame = self.frames.pick(display_stamp, self.latency_s)
         if frame is None:
             return None
@@ -272,6 +278,10 @@ class DisplayView:
         if self.reprojection:
             R = self.tracker.capture_from_display(frame.stamp, display_stamp - self.latency_s)
             if R is not None and rotation_angle_deg(R) < MIN_TURN_DEG:
+                R = None
+        if gaze_rotation is not None:
+            R = gaze_rotation if R is None else R @ gaze_rotation
+            if rotation_angle_deg(R) < MIN_TURN_DEG:
                 R = None
         if R is None and (frame.simulator is sim or frame.simulator is None):
             return frame.levels, frame                           # as captured, by this very mode

@@ -69,6 +69,7 @@ from raspv_spv import staleness
 from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.display_clock import DisplayClock
 from raspv_spv.spv_node_display import REPORT_PERIOD_S, SpvDisplay
+from raspv_spv.spv_node_gaze import SpvGaze
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -86,7 +87,7 @@ INPUT_TOPICS = {"color": topics.COLOR, "depth": topics.DEPTH, "scene": topics.SC
                 "stairs": topics.STAIRS, "segmentation": topics.SEGMENTATION_LABELS}
 
 
-class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
+class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
@@ -142,6 +143,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
         self._stop_display = threading.Event()
         self.clock = DisplayClock()
         self._shown_head: np.ndarray | None = None      # the last head orientation that poked the display
+        self._setup_gaze()                              # eye gaze (gaze_mode, raspv_spv.spv_node_gaze)
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
         self._headless_stamp: float | None = None
         if not self.params["headless"]:
@@ -493,6 +495,7 @@ class SpvNode(SpvDisplay, SpvReconfiguration, RaspvNode):
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
 
     def close(self) -> None:
+        self._close_gaze()
         self._builder.close()
         self._stop_display.set()
         self.clock.stop()

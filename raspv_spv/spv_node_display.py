@@ -18,6 +18,7 @@ from raspv_common.conversions import stamp_to_seconds
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv import staleness
+from raspv_spv.gaze import shift_image
 from raspv_spv.sprites_msg import sprites_to_msg
 
 REPORT_PERIOD_S = 10.0
@@ -45,6 +46,7 @@ class SpvDisplay:
             sim, map_id = self.sim, self.map_id
             plan, shown_sim, no_data = self._shown_for(sim, t0)
             scene_stamp = 0.0
+            gaze = self.gaze_for_tick(sim)          # eye gaze: field offset, sampling turned (view), saccade blank
             if plan.no_data:                        # the camera stopped: the no-data pattern, not its last frame
                 levels, source_stamp = no_data.levels(t0), 0.0
             else:
@@ -63,19 +65,22 @@ class SpvDisplay:
                     source_stamp = shown_frame.stamp
                     if shown_sim.mode.needs & staleness.SCENE_INPUTS:
                         scene_stamp = shown_frame.inputs.scene_stamp
+            if gaze.blank:
+                levels = np.zeros_like(levels)
             brightness = sim.brightness(levels, frames)
         if stamp is not None:
             source_stamp = stamp                    # headless: the frame answers this input
         msg = None
         if self.pub_image.get_subscription_count():          # the image only when someone watches it
-            image = sim.render(brightness)
+            image = shift_image(sim.render(brightness), *gaze.offset_px)
             msg = Image(header=header, height=image.shape[0], width=image.shape[1], is_bigendian=0)
             msg.encoding = "mono8" if image.ndim == 2 else "rgb8"
             msg.step = image.shape[1] * (1 if image.ndim == 2 else 3)
             msg.data = array.array("B", image.tobytes())
         frame = PhospheneFrame(header=header, map_id=map_id, mode=plan.mode, overlays=list(plan.overlays),
                                configured_mode=sim.config.mode, configured_overlays=list(sim.config.overlays),
-                               temporal=sim.temporal is not None)
+                               temporal=sim.temporal is not None, field_offset_x_px=float(gaze.offset_px[0]),
+                               field_offset_y_px=float(gaze.offset_px[1]), saccade=gaze.saccade)
         frame.source_stamp = self.header("", source_stamp).stamp
         frame.scene_stamp = self.header("", scene_stamp).stamp
         frame.levels = array.array("B", levels.tobytes())

@@ -18,6 +18,7 @@ from raspv_spv.device import DeviceError
 from raspv_spv.phosphene_map import MapError, PhospheneMap as PhospheneMapCore
 from raspv_spv.prebuild import missing_from_cache, prebuild_in_subprocess
 from raspv_spv.reprojection import DisplayFrame
+from raspv_spv.spv_node_gaze import GAZE_PARAMS
 from raspv_spv.simulator import InputError, PhospheneSimulator, check_config, describe_layout, describe_sprites
 
 STARTUP_RATE_CHECK_S = 3.0     # the start-up configuration's display budget is checked this long after start
@@ -74,6 +75,9 @@ class SpvReconfiguration:
                 f"{c.frame_rate:g} Hz")
 
     def on_parameters(self, changes):
+        if set(changes) <= GAZE_PARAMS:             # eye gaze: nothing to rebuild (raspv_spv.spv_node_gaze)
+            self.apply_gaze_params(changes)
+            return None
         merged = {**self.params, **changes}
         verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
         if verdict is not None and verdict.refuse:
@@ -94,6 +98,7 @@ class SpvReconfiguration:
             self._update_subscriptions(self.sim.needs, self.view.reprojection)
         if verdict is not None and verdict.warn:
             self.get_logger().warning(verdict.message)
+        self.apply_gaze_params(changes)
         return None
 
     # -- background rebuild (worker thread) ---------------------------------------------------

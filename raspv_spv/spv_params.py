@@ -8,6 +8,7 @@ rebuilt and swapped in at once, or the change is refused with the reason.
 from raspv_common.params import Param
 from raspv_spv.modes import MODES, OVERLAYS
 from raspv_spv.camera_source import CAMERA_SOURCES
+from raspv_spv.gaze import GAZE_MODES, SACCADE_DISPLAYS, SACCADE_THRESHOLD_DEG_S
 
 PARAMS = [
     Param("device", "default", "device preset (default, argus_ii, argus_ii_axon, alpha_ims, prima, orion, ... see "
@@ -61,6 +62,15 @@ PARAMS = [
           "wait for it (headless always waits)"),
     Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
           "(0: as soon as the graph can)", minimum=0.0, maximum=1000.0, unit="ms"),
+    Param("gaze_mode", "ignored", "eye gaze (/gaze/direction): ignored (phosphenes fixed on the display), locked (the "
+          "field drawn where the eye looks, the scene sampled straight ahead of the head camera: a retinal implant), "
+          "contingent (the field drawn and the scene sampled where the eye looks: an eye-tracking device)",
+          choices=GAZE_MODES),
+    Param("saccade_display", "blank", "during a saccade (velocity above saccade_threshold): blank (no phosphenes, as "
+          "saccadic suppression), hold (the field stays at the last fixation) or follow (every sample drawn)",
+          choices=SACCADE_DISPLAYS),
+    Param("saccade_threshold", SACCADE_THRESHOLD_DEG_S, "eye velocity above which a saccade is under way (I-VT)",
+          minimum=5.0, maximum=1000.0, unit="deg/s"),
     Param("stale_inputs", True, "notice inputs that stop (camera, scene, path, stairs, segmentation) and show a "
           "fallback mode, or the blinking no-data ring, instead of the last frame (off: sources that publish "
           "single frames)"),

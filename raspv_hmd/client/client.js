@@ -58,6 +58,7 @@
     head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
     lastStatus: "", xr: false, orientation: false,
     instructions: null, trialId: null, startedId: null, experimentSent: [],
+    view: null, fieldOffset: [0, 0],          // display geometry (bridge "view"); eye gaze: the field's shift [px]
   };
   window.raspvClient = S;
   // the phosphene image the page drew last (levels stream), for tests: {width, height, pixels, seq, stamp}
@@ -65,6 +66,16 @@
     if (!levels || !readyMeta || readyMeta.fmt !== FORMAT_LEVELS) return null;
     const img = levels.readImage();
     return img && Object.assign(img, { seq: readyMeta.seq, stamp: readyMeta.stamp, pixels: Array.from(img.pixels) });
+  };
+
+  S.sendControl = (obj) => { if (S.role !== "control") return false; send(obj); return true; };   // gaze.js
+  // what the view canvas shows (the page's own drawer): grey rows of the first eye, for tests
+  S.readShown = () => {
+    if (!ctx || !levels || !levels.sprites) return null;
+    const w = levels.sprites.width, h = levels.sprites.height, d = ctx.getImageData(0, 0, w, h).data;
+    const pixels = new Array(w * h);
+    for (let i = 0; i < w * h; i++) pixels[i] = Math.max(d[4 * i], d[4 * i + 1], d[4 * i + 2]);
+    return { width: w, height: h, pixels, seq: readyMeta ? readyMeta.seq : 0, offset: S.fieldOffset };
   };
 
   let ws = null, pending = null, decoding = false, readySeq = 0, readyMeta = null;
@@ -119,6 +130,8 @@
       showMessage(`refused (${m.code}): ${m.reason}`, false);
     } else if (m.type === "instructions") {
       showInstructions(m);
+    } else if (m.type === "view") {
+      S.view = m;                                           // where gaze directions land on the display
     } else if (m.type === "cues") {
       if (window.raspvAudio) window.raspvAudio.update(m);     // audio_cues.js
     } else if (m.type === "bye") {
@@ -173,6 +186,8 @@
       S.drawMs = 0.9 * S.drawMs + 0.1 * (performance.now() - t0);
       lastLevelsFrame = frame;
       meta.green = greenFrame;
+      meta.offset = frame.fieldOffset;
+      S.fieldOffset = frame.fieldOffset;
       S.size = `${w}×${h}`;
       S.lastNoData = frame.noData;
       if (frame.noData) S.framesNoData++;
@@ -263,12 +278,28 @@
 
   // The page's own drawing of the levels (no WebGL): the canvas takes the image's size (twice as
   // wide in stereo) and CSS fits it to the window.
+  let shiftedBefore = false;
   function presentNative() {
     const sp = levels.sprites, image = levels.image();
     const w = sp.width, h = sp.height, eyes = S.stereo ? 2 : 1;
     if (view.width !== w * eyes || view.height !== h) { view.width = w * eyes; view.height = h; }
     view.classList.add("native");
-    for (let e = 0; e < eyes; e++) ctx.putImageData(image, e * w, 0);
+    const [ox, oy] = (readyMeta && readyMeta.offset) || [0, 0];      // eye gaze: the field drawn shifted
+    if (ox || oy || shiftedBefore) { ctx.fillStyle = "#000"; ctx.fillRect(0, 0, view.width, view.height); }
+    shiftedBefore = !!(ox || oy);
+    for (let e = 0; e < eyes; e++) {
+      if (!ox && !oy) ctx.putImageData(image, e * w, 0);
+      else if (Math.abs(ox) < w && Math.abs(oy) < h) {
+        ctx.putImageData(image, e * w + ox, oy, Math.max(0, -ox), Math.max(0, -oy), w - Math.abs(ox), h - Math.abs(oy));
+      }
+    }
+  }
+
+  // boxes [x, y, w, h] of the image → the same moved by the field's offset, clipped to themselves
+  function shiftedBoxes(boxes) {
+    const o = readyMeta && readyMeta.offset;
+    if (!o || (!o[0] && !o[1]) || !readyMeta.w) return boxes;
+    return boxes.map(([x, y, w, h]) => { const s = w / readyMeta.w; return [x + o[0] * s, y + o[1] * s, w, h, [x, y, w, h]]; });
   }
 
   function present() {
@@ -287,7 +318,7 @@
       levels.clear(null);
       if (readyMeta) {
         const green = S.green || !!readyMeta.green;
-        if (readyMeta.fmt === FORMAT_LEVELS) levels.present(boxes(view.width, view.height), green, null, view.height);
+        if (readyMeta.fmt === FORMAT_LEVELS) levels.present(shiftedBoxes(boxes(view.width, view.height)), green, null, view.height);
         else levels.presentImage(frameCanvas, boxes(view.width, view.height), S.green, null, view.height);
       }
       shown();
@@ -534,7 +565,7 @@
             if (readyMeta.fmt === FORMAT_LEVELS && lastLevelsFrame) {
               if (xrSprites !== lastSprites) { xrLevels.setSprites(lastSprites); xrSprites = lastSprites; }
               if (xrDrawn !== lastLevelsFrame) { xrLevels.draw(lastLevelsFrame); xrDrawn = lastLevelsFrame; }
-              xrLevels.present(toBoxes(), S.green || !!readyMeta.green, layer.framebuffer, H);
+              xrLevels.present(shiftedBoxes(toBoxes()), S.green || !!readyMeta.green, layer.framebuffer, H);
             } else {
               xrLevels.presentImage(frameCanvas, toBoxes(), S.green, layer.framebuffer, H);
             }
@@ -555,7 +586,11 @@
   function paintFrameCanvas() {                // the page-drawn levels image into frameCanvas (XR upload)
     const sp = levels.sprites;
     setFrameSize(sp.width, sp.height);
-    frameCtx.putImageData(levels.image(), 0, 0);
+    const [ox, oy] = (readyMeta && readyMeta.offset) || [0, 0];      // eye gaze: the field drawn shifted
+    frameCtx.fillStyle = "#000"; frameCtx.fillRect(0, 0, sp.width, sp.height);
+    if (Math.abs(ox) < sp.width && Math.abs(oy) < sp.height) {
+      frameCtx.putImageData(levels.image(), ox, oy, Math.max(0, -ox), Math.max(0, -oy), sp.width - Math.abs(ox), sp.height - Math.abs(oy));
+    }
   }
 
   function makeQuadRenderer(gl) {              // one textured quad filling each eye's viewport

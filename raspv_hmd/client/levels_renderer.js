@@ -15,7 +15,7 @@
 "use strict";
 window.RaspvLevels = (() => {
   const SPRITES_MAGIC = "RSPS", SPRITES_HEADER = 44, LEVELS_HEADER = 12, WEIGHT_SCALE = 16384;
-  const FRAME_FALLBACK = 1, FRAME_NO_DATA = 2;
+  const FRAME_FALLBACK = 1, FRAME_NO_DATA = 2, FRAME_OFFSET = 4;
 
   function contextFor(canvas, options) {
     const gl = canvas.getContext("webgl2", Object.assign({ alpha: false, antialias: false, depth: false,
@@ -47,12 +47,14 @@ window.RaspvLevels = (() => {
     const dv = new DataView(buf, offset);
     if (dv.byteLength < LEVELS_HEADER) return null;
     const mapId = dv.getUint32(0, true), count = dv.getUint32(4, true), levels = dv.getUint8(8), flags = dv.getUint8(9);
-    const need = LEVELS_HEADER + 2 * count + (levels > 1 ? count : 0);
+    const shifted = (flags & FRAME_OFFSET) !== 0;           // eye gaze: the field drawn shifted (i16 dx, dy at the end)
+    const need = LEVELS_HEADER + 2 * count + (levels > 1 ? count : 0) + (shifted ? 4 : 0);
     if (dv.byteLength !== need) return null;
     const start = offset + LEVELS_HEADER;
     const weights = new Uint16Array(buf.slice(start, start + 2 * count));
     const spriteLevels = levels > 1 ? new Uint8Array(buf, start + 2 * count, count) : null;
-    return { mapId, count, levels, flags, weights, spriteLevels,
+    const fieldOffset = shifted ? [dv.getInt16(need - 4, true), dv.getInt16(need - 2, true)] : [0, 0];
+    return { mapId, count, levels, flags, weights, spriteLevels, fieldOffset,
              noData: (flags & FRAME_NO_DATA) !== 0, fallback: (flags & FRAME_FALLBACK) !== 0 };
   }
 
@@ -229,7 +231,8 @@ window.RaspvLevels = (() => {
     }
 
     // Show a texture in boxes [x, y, w, h] (px from the top-left) of the framebuffer ``fb`` (null:
-    // the canvas) of height ``fbHeight``.
+    // the canvas) of height ``fbHeight``; a box's optional 5th element [x, y, w, h] clips it (a
+    // field shifted by eye gaze stays inside its eye's box).
     function show(tex, boxes, green, fb, fbHeight) {
       gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
       gl.useProgram(present);
@@ -237,9 +240,14 @@ window.RaspvLevels = (() => {
       gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, tex);
       gl.uniform1i(gl.getUniformLocation(present, "image"), 0);
       gl.uniform1i(gl.getUniformLocation(present, "green"), green ? 1 : 0);
-      for (const [x, y, w, h] of boxes) {
+      for (const [x, y, w, h, clip] of boxes) {
+        if (clip) {
+          gl.enable(gl.SCISSOR_TEST);
+          gl.scissor(Math.round(clip[0]), Math.round(fbHeight - clip[1] - clip[3]), Math.round(clip[2]), Math.round(clip[3]));
+        }
         gl.viewport(Math.round(x), Math.round(fbHeight - y - h), Math.round(w), Math.round(h));
         gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+        if (clip) gl.disable(gl.SCISSOR_TEST);
       }
     }
     return {

@@ -46,8 +46,12 @@ def test_expected_mode_given_configured_or_inferred():
     assert fallback_kinds(ShownFrame(0, "depth", ("stairs",)), "depth", ("path",)) == ["overlays:-path", "overlays:+stairs"]
 
 
-def write_frames(path, legacy: bool, spec):
-    """A bag of /spv/frame messages, in today's format or the one before configured_mode."""
+GAZE_FIELDS = ("field_offset_", "saccade")
+
+
+def write_frames(path, legacy: bool | str, spec):
+    """A bag of /spv/frame messages, in today's format, the one before the gaze fields
+    (``legacy="before_gaze"``) or the one before configured_mode (``legacy=True``)."""
     from rosbags.typesys import get_types_from_msg
 
     from raspv_bags.message_types import raspv_msg_dir, typestore
@@ -57,10 +61,12 @@ def write_frames(path, legacy: bool, spec):
     text = (raspv_msg_dir() / "PhospheneFrame.msg").read_text()
     msgtype = "raspv_msgs/msg/PhospheneFrame"
     serialise_as = msgtype
-    if legacy:        # the definition as it was: no configured_mode / configured_overlays / sprite_levels
-        text = "\n".join(line for line in text.splitlines() if "configured_" not in line and "sprite_levels" not in line
-                         and not line.lstrip().startswith("# (stale"))
-        serialise_as = "test_legacy/msg/PhospheneFrame"
+    if legacy:        # the definition as it was: no gaze fields (and no configured_mode / configured_overlays / sprite_levels)
+        old = GAZE_FIELDS if legacy == "before_gaze" else ("configured_", "sprite_levels", *GAZE_FIELDS)
+        lines = [line for line in text.splitlines() if not any(line.startswith(f) or f" {f}" in line.split("#")[0]
+                                                                for f in old)]
+        text = "\n".join(line for line in lines if not line.lstrip().startswith(("# (stale", "# this on the display")))
+        serialise_as = f"test_legacy_{'gaze' if legacy == 'before_gaze' else 'old'}/msg/PhospheneFrame"
         if serialise_as not in store.fielddefs:
             store.register(get_types_from_msg(text, serialise_as))
     cls = store.types[serialise_as]
@@ -82,13 +88,15 @@ def write_frames(path, legacy: bool, spec):
             fields = dict(header=Header(stamp=t, frame_id="phosphene"), source_stamp=t, scene_stamp=t, map_id=1,
                           mode=mode, overlays=list(overlays), levels=np.zeros(3, np.uint8),
                           brightness=np.zeros(3, np.float32), temporal=False)
-            if not legacy:
+            if legacy != True:  # noqa: E712
                 fields.update(configured_mode=configured[0], configured_overlays=list(configured[1]),
                               sprite_levels=np.zeros(0, np.uint8))
+            if not legacy:
+                fields.update(field_offset_x_px=-12.0, field_offset_y_px=3.0, saccade=False)
             w.write("/spv/frame", 1_000_000_000 + i * 20_000_000, store.serialize_cdr(cls(**fields), serialise_as))
 
 
-@pytest.mark.parametrize("legacy", [False, True])
+@pytest.mark.parametrize("legacy", [False, "before_gaze", True])
 def test_bag_info_prints_the_share(tmp_path, legacy):
     spec = [("chess_floor", ("path",), ("chess_floor", ("path",)))] * 45 + [("depth", ("path",), ("chess_floor", ("path",)))] * 5
     write_frames(tmp_path / "bag", legacy, spec)
@@ -97,4 +105,4 @@ def test_bag_info_prints_the_share(tmp_path, legacy):
     assert out.returncode == 0, out.stderr
     line = next(l for l in out.stdout.splitlines() if l.startswith("shown:"))
     assert "90.0 % of 50 frames in chess_floor+path" in line and "mode:depth 5 frames / 0.10 s" in line
-    assert ("inferred" in line) == legacy
+    assert ("inferred" in line) == (legacy is True)

@@ -28,6 +28,7 @@ def _corpus(d: Path) -> list[tuple[str, dict, str, str]]:
     (d / "garbage.yaml").write_text("floor: {from: [0, 0], to: [1, 1]\nspawn: [\n")
     (d / "schema.yaml").write_text("floor: 3\nspawn: {position: [0, 0]}\n")
     (d / "binary.yaml").write_bytes(BINARY)
+    (d / "gaze_header.csv").write_text("time,yaw,pitch\n0,1,2\n")
     (d / "a_directory.yaml").mkdir()
     (d / "no_mesh.yaml").write_text(GOOD_WORLD + "models:\n  - {file: missing.obj, position: [1, 1, 0]}\n")
     (d / "bin_mesh.yaml").write_text(GOOD_WORLD + "models:\n  - {file: junk.obj, position: [1, 1, 0]}\n")
@@ -137,6 +138,13 @@ def _corpus(d: Path) -> list[tuple[str, dict, str, str]]:
          "binary_layout.yaml", "not a UTF-8 text file"),
         ("device naming a binary layout", spv(p(d / "device_binary_layout.yaml")), "binary_layout.yaml",
          "not a UTF-8 text file"),
+        ("binary gaze trace", {"launch": {"nodes": [{"kind": "subject"}]},
+                               "subject": {"ros__parameters": {"gaze": "trace", "gaze_trace": p(d / "binary.yaml")}}},
+         "binary.yaml", "not a text file"),
+        ("gaze trace with another header", {"launch": {"nodes": [{"kind": "subject"}]},
+                                            "subject": {"ros__parameters": {"gaze": "trace",
+                                                                            "gaze_trace": p(d / "gaze_header.csv")}}},
+         "gaze_header.csv", "expected t,x,y,z,valid"),
         ("mesh with a NaN vertex", sim(p(d / "nan_mesh.yaml")), "nan.obj", "vertex 2 is not finite"),
         ("mesh face index past the vertex count", sim(p(d / "past_mesh.yaml")), "past.obj",
          "face index 4 is past the vertex count (3)"),

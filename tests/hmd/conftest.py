@@ -15,6 +15,7 @@ class Recorder:
 
     def __init__(self) -> None:
         self.heads: list[tuple] = []
+        self.gazes: list[tuple] = []          # (client id, direction or None, client time, arrival)
         self.twists: list[tuple[float, float]] = []
         self.keys: list[tuple[int, str]] = []
         self.params: list[tuple[int, str, Any]] = []
@@ -29,6 +30,7 @@ class Recorder:
     def callbacks(self) -> Callbacks:
         return Callbacks(on_head_orientation=lambda q, t: self._add(self.heads, (q, t, time.time())),
                          on_cmd_vel=lambda v, w: self._add(self.twists, (v, w)),
+                         on_gaze=lambda c, d, t, r: self._add(self.gazes, (c, d, t, r)),
                          on_key=lambda c, k: self._add(self.keys, (c, k)),
                          on_param=lambda c, n, v: self._add(self.params, (c, n, v)),
                          on_event=lambda text: self._add(self.events, text))
