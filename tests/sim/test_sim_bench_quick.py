@@ -27,3 +27,6 @@ def test_the_quick_sim_bench_prints_the_demo_graphs_rate_and_its_cost():
     assert set(shares) == {"sim", "scene", "spv", "bridge"}, shares
     sim_cpu = float(re.search(r"sim CPU per frame\s+\[ms\]\s+([\d.]+)", out).group(1))
     assert 5.0 < core_cpu < 1000.0 and 5.0 < sim_cpu < 1000.0, (core_cpu, sim_cpu)
+    if "EGL OpenGL" in out:      # the README's ratio: the plugin's shadow-map pass, measured beside ours
+        peer = re.search(r"CPU per render ([\d.]+) ms vs ([\d.]+) ms without it \(([\d.]+)x\)", out)
+        assert peer and "shadow-map pass left on" not in out, out[-3000:]     # printed, not timed
