@@ -87,7 +87,7 @@ def train_patient(data: dict[str, np.ndarray], settings: PatientTraining | None 
             loss = loss_of(order[k:k + s.batch])
             loss.backward()
             opt.step()
-            total += float(loss) * len(order[k:k + s.batch])
+            total += float(loss.detach()) * len(order[k:k + s.batch])
         net.eval()
         with torch.no_grad():
             vloss = float(loss_of(va)) if len(va) else total / max(len(tr), 1)
