@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p = sub.add_parser("run", help="run a session: the graph, then every trial of the protocol for one subject")
     p.add_argument("protocol")
     p.add_argument("--subject", required=True, help="S07 (a person), or scripted[:POLICY[:N]] (a virtual subject: "
-                                                    "navigate (the default), follow_path or wander_avoid, number N)")
+                                                    "navigate (the default), follow_path, wander_avoid or learned, number N)")
     p.add_argument("--out", default="sessions", help="sessions go to OUT/<protocol>/<subject>/ (default: sessions)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted session at its next trial")
     p.add_argument("--bag", action="store_true", default=None, help="record a bag of every trial (default: the "
