@@ -62,3 +62,8 @@ def test_the_summary_gives_means_over_subjects_with_bootstrap_intervals():
     assert low.collisions_ci[0] <= low.collisions <= low.collisions_ci[1]
     assert summarise(records, {"course": 90.0}, "spv.num_phosphenes")[0].level == "16"        # seeded: same table
     assert "| 100 |" in summary_table(rows, "spv.num_phosphenes")
+
+
+def test_a_sweep_that_needs_the_scene_node_is_refused_by_the_quick_runner():
+    problems = check_quick(load_sweep(REPO / "experiments" / "office_modes_sweep.yaml"))
+    assert problems and all("needs the scene node" in p or "raspv experiment sweep" in p for p in problems)
