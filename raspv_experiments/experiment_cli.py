@@ -5,6 +5,7 @@
     raspv experiment run PROTOCOL --subject S07 [--resume] [--bag] [--out DIR]
     raspv experiment run PROTOCOL --subject scripted:follow_path[:N]
     raspv experiment sweep SWEEP [--workers N | --ray [ADDRESS]] [--out DIR] [--resume]
+    raspv experiment quick-sweep SWEEP [--out CSV] [--subjects 1,2,...]   (one process, the cores; no graph)
     raspv experiment report DIR... [-o OUT]
 
 PROTOCOL is a path or the name of a file in ``experiments/``. docs/experiments.md is the guide.
@@ -17,7 +18,7 @@ import sys
 import threading
 from pathlib import Path
 
-ACTIONS = ("check", "plan", "run", "sweep", "report")
+ACTIONS = ("check", "plan", "run", "sweep", "quick-sweep", "report")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p = sub.add_parser("run", help="run a session: the graph, then every trial of the protocol for one subject")
     p.add_argument("protocol")
     p.add_argument("--subject", required=True, help="S07 (a person), or scripted[:POLICY[:N]] (a virtual subject: "
-                                                    "navigate (the default), follow_path or wander_avoid, number N)")
+                                                    "navigate (the default), follow_path, wander_avoid or learned, number N)")
     p.add_argument("--out", default="sessions", help="sessions go to OUT/<protocol>/<subject>/ (default: sessions)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted session at its next trial")
     p.add_argument("--bag", action="store_true", default=None, help="record a bag of every trial (default: the "
@@ -46,6 +47,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--resume", action="store_true", help="continue sessions already in OUT")
     p.add_argument("--domains", default=None, metavar="LOW-HIGH",
                    help="ROS domain ids the sweep's graphs may take, e.g. 100-140 (default: 30-230, any free one)")
+    p = sub.add_parser("quick-sweep", help="a sweep's trials in one process from the cores (quick_trial; spv-only "
+                                           "conditions), one CSV row per trial and a summary with bootstrap CIs")
+    p.add_argument("sweep")
+    p.add_argument("--out", default=None, help="CSV file (default: sweeps/<sweep name>/quick_trials.csv)")
+    p.add_argument("--subjects", default=None, metavar="N,N,...", help="only these virtual subjects of the sweep")
     p = sub.add_parser("report", help="tidy CSV and HTML report with figures and statistics")
     p.add_argument("dirs", nargs="+", metavar="DIR", help="session or sweep folders (searched for trials.jsonl)")
     p.add_argument("-o", "--out", default="report", help="output folder (default: report)")
@@ -67,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
 
     with captured_native_output():      # PyBullet's import banner is not for the experimenter
         import pybullet  # noqa: F401
-    return {"check": _check, "plan": _plan, "run": _run, "sweep": _sweep, "report": _report}[args.action](args)
+    return {"check": _check, "plan": _plan, "run": _run, "sweep": _sweep, "quick-sweep": _quick_sweep,
+            "report": _report}[args.action](args)
 
 
 def _load(name: str, warn: bool = True):
@@ -212,6 +219,34 @@ def _sweep(args) -> int:
     bad = [r for r in results if r["code"] != 0]
     print(f"sweep done: {len(results)} sessions in {out / 'sessions'}; report: raspv experiment report {out}")
     return 1 if bad else 0
+
+
+def _quick_sweep(args) -> int:
+    from raspv_experiments.protocol import ProtocolError, resolve_protocol_path
+    from raspv_experiments.quick_sweep import check_quick, run_quick_sweep, summarise, summary_table
+    from raspv_experiments.sweep import load_sweep
+
+    try:
+        sweep = load_sweep(resolve_protocol_path(args.sweep))
+    except ProtocolError as exc:
+        print("\n".join(exc.errors), file=sys.stderr)
+        return 2
+    if args.subjects:
+        try:
+            sweep.subjects = [int(v) for v in args.subjects.split(",")]
+        except ValueError:
+            return _err(f"--subjects {args.subjects}: expected numbers separated by commas, e.g. 1,2,3")
+    problems = check_quick(sweep)
+    if problems:
+        print("\n".join(problems), file=sys.stderr)
+        return 2
+    out = Path(args.out or f"sweeps/{sweep.name}/quick_trials.csv")
+    records = run_quick_sweep(sweep, out)
+    factor = next(iter(sweep.protocol.factors), None)
+    limits = {t.name: t.time_limit for t in sweep.protocol.tasks}
+    print(summary_table(summarise(records, limits, factor, sweep.protocol.factors.get(factor)), factor or "condition"))
+    print(f"trials: {out}")
+    return 0
 
 
 def _report(args) -> int:

@@ -25,7 +25,9 @@ Each frame:
    frame's perceptual noise is not an obstacle). What stands out is placed on the floor through the head
    pose (its ray's floor point: an overestimate for things above the floor, as for a person
    who judges distance by height in the view) and remembered for a few seconds in the
-   path-integrated frame, so an obstacle that left the view is still walked around.
+   path-integrated frame, so an obstacle that left the view is still walked around — as
+   5 cm floor cells, each with its latest sighting (a memory of the last 600 points, as before,
+   forgot within a frame at 2500 phosphenes, where a box and the walls light hundreds).
 3. **Touch**: a bump (a collision the body feels: ``touch()``) makes it step back for
    ``BACK_S`` and turn away from the side where it last saw more obstacles. (The other
    policies' "no optic flow" cue does not work here: on a featureless floor the view does not
@@ -50,6 +52,8 @@ BODY_RADIUS = 0.25                 # m, the avatar's body
 MARGIN = 0.2                       # m kept from obstacles
 AVOID_RANGE = 2.2                  # m: nearer obstacles are avoided
 MEMORY_S = 4.0                     # s an obstacle out of view is remembered
+MEMORY_CELL = 0.05                 # m: remembered obstacles are floor cells of this size (latest sighting each), so
+                                   # what is remembered does not depend on how many phosphenes showed it
 FLOOR_TAU_S = 1.5                  # s: time constant of a row's floor brightness over time
 TRAIL_MEMORY_S = 6.0               # s: turns back toward a trail seen this recently
 BACK_S = 0.8                       # s stepping back after a bump
@@ -88,6 +92,7 @@ class Navigate(Policy):
         self._standing_out = np.zeros(len(layout.x), bool)     # stood out in the previous frame
         self.pose = np.zeros(3)                        # path-integrated x, y [m], heading [rad] (start frame)
         self.memory: list[tuple[float, float, float]] = []      # obstacles: (x, y, t) in the start frame
+        self._cells: dict[tuple[int, int], float] = {}          # the same, by MEMORY_CELL cell: last seen [s]
         self.peak = 0.0
         self.trail_heading: float | None = None        # start-frame heading where the trail was last seen
         self.trail_t = -math.inf
@@ -153,10 +158,13 @@ class Navigate(Policy):
         t = self.t or 0.0
         x, y, h = self.pose
         c, s = math.cos(h), math.sin(h)
-        near = idx[self.ground_distance[idx] < AVOID_RANGE + 1.0]
-        for gx, gy in self.ground[near]:
-            self.memory.append((x + c * gx - s * gy, y + s * gx + c * gy, t))
-        self.memory = [m for m in self.memory if t - m[2] <= MEMORY_S][-600:]
+        g = self.ground[idx[self.ground_distance[idx] < AVOID_RANGE + 1.0]]
+        cells = np.round(np.column_stack([x + c * g[:, 0] - s * g[:, 1], y + s * g[:, 0] + c * g[:, 1]])
+                         / MEMORY_CELL).astype(int)
+        for key in map(tuple, cells):
+            self._cells[key] = t
+        self._cells = {k: seen for k, seen in self._cells.items() if t - seen <= MEMORY_S}
+        self.memory = [(i * MEMORY_CELL, j * MEMORY_CELL, seen) for (i, j), seen in self._cells.items()]
 
     def _desired(self) -> float:
         """Desired heading relative to the body [rad]: back to the trail, else to the goal, else ahead."""

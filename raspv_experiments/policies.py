@@ -230,9 +230,10 @@ class WanderAvoid(Policy):
 
 
 def policies() -> dict[str, type[Policy]]:
+    from raspv_experiments.learned_policy import Learned
     from raspv_experiments.navigate_policy import Navigate
 
-    return {"navigate": Navigate, "follow_path": FollowPath, "wander_avoid": WanderAvoid}
+    return {"navigate": Navigate, "follow_path": FollowPath, "wander_avoid": WanderAvoid, "learned": Learned}
 
 
 def make_policy(name: str, layout: PhospheneLayout, config: PolicyConfig | None = None, **kw) -> Policy:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -26,14 +26,18 @@ class QuickResult:
     time_s: float
     collisions: int
     path: list[tuple[float, float]] = field(default_factory=list)
+    phosphenes: int = 0                   # phosphenes of the map shown (the layout's count, not the requested one)
 
 
 def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float, float, float], time_limit: float,
-                spv: dict[str, Any], policy: str = "navigate", config: PolicyConfig | None = None,
+                spv: dict[str, Any], policy: str | Callable[..., Any] = "navigate", config: PolicyConfig | None = None,
                 rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5,
-                planner: dict[str, Any] | None = None) -> QuickResult:
+                planner: dict[str, Any] | None = None, policy_kw: dict[str, Any] | None = None,
+                on_frame: Callable[[Any], None] | None = None) -> QuickResult:
     """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
-    ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``."""
+    ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``.
+    ``policy`` is a policy name or a callable (layout, config, goal=…) → Policy; ``policy_kw`` go to its constructor (e.g. ``model`` of ``learned``); ``on_frame``
+    gets the simulation before each decision (demonstrations: the expert's ground truth)."""
     from raspv_bringup.registry import schema_for
     from raspv_sim.avatar import head_quaternion
     from raspv_sim.simulator import SimConfig, Simulation
@@ -50,7 +54,8 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     x0, y0, yaw = start
     dx, dy = goal[0] - x0, goal[1] - y0
     told = (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
-    agent = make_policy(policy, layout, config, goal=told)
+    build = policy if callable(policy) else (lambda *a, **kw: make_policy(policy, *a, **kw))
+    agent = build(layout, config, goal=told, **(policy_kw or {}))
     agent.show(params["mode"], params["overlays"])
     assistant = None
     if "path" in params["overlays"]:       # the planner node's core, as the planner node runs it
@@ -74,7 +79,7 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
             report = sim.step(1.0 / rate, *command)
             path.append((sim.avatar.x, sim.avatar.y))
             if "goal" in report.goals_reached:
-                return QuickResult(True, sim.t - t0, sim.monitor.count, path)
+                return QuickResult(True, sim.t - t0, sim.monitor.count, path, len(m.centres))
             if report.collisions:
                 agent.touch()
             frame = sim.render(labels=False)
@@ -88,6 +93,8 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
             inputs = FrameInputs(color=frame.rgb, depth=frame.depth, camera=frame.intrinsics, stamp=sim.t,
                                  camera_pose=frame.world_from_camera, extras=dict(extras))
             b = spv_sim.brightness(spv_sim.levels(inputs), max(1, round(params["rate"] / rate)))
+            if on_frame is not None:
+                on_frame(sim)
             c = agent.act(b, sim.t)
             command = (c.linear, c.angular)
-        return QuickResult(False, sim.t - t0, sim.monitor.count, path)
+        return QuickResult(False, sim.t - t0, sim.monitor.count, path, len(m.centres))

@@ -74,8 +74,9 @@ class SubjectNode(RaspvNode):
 
     def _new_policy(self, params: dict) -> None:
         if self.layout is not None:
+            extra = {"model": params["model"]} if params["policy"] == "learned" else {}
             self.policy = make_policy(params["policy"], self.layout, policy_config(params, self.trial_seed),
-                                      goal=self.goal)
+                                      goal=self.goal, **extra)
 
     def on_parameters(self, changes):
         merged = {**self.params, **changes}

@@ -1,9 +1,12 @@
 """Parameters of the `subject` node (a scripted subject; imports nothing heavy). The ability
 parameters' defaults are the population's median subject (:mod:`raspv_experiments.subject_ability`);
 sessions pass each virtual subject's own."""
+from raspv_bringup.file_kinds import register_file_kind
 from raspv_common.params import Param
 
-POLICY_NAMES = ("navigate", "follow_path", "wander_avoid")
+POLICY_NAMES = ("navigate", "follow_path", "wander_avoid", "learned")
+register_file_kind("patient_model", "raspv_experiments.learned_policy:check_model",
+                   "learned virtual patient (ONNX with raspv_patient metadata, from raspv learn patient)")
 DEFAULT_POLICY = "navigate"
 
 PARAMS = [
@@ -26,6 +29,8 @@ PARAMS = [
     Param("contrast_threshold", 0.12, "navigate: brighter than its row's floor by this much stands out as an obstacle",
           minimum=0.01, maximum=1.0),
     Param("perception_noise", 0.03, "std. dev. of the noise added to every brightness read", minimum=0.0, maximum=1.0),
+    Param("model", "", "learned: the policy's ONNX file ('': the shipped raspv_experiments/models/"
+          "learned_patient.onnx)", file_kind="patient_model"),
     Param("auto_start", True, "press 'start' as soon as instructions are shown"),
     Param("gaze", "none", "eye gaze it publishes on /gaze/direction: none, model (fixations and saccades of "
           "raspv_experiments/scripted_gaze.py, seeded per trial) or trace (the file gaze_trace)",

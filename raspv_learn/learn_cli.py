@@ -6,6 +6,8 @@ hand-designed modes through the computational observer (docs/learn.md).
     raspv learn train optimist --resume     # continue a killed run
     raspv learn compare optimist            # observer scores of every mode on the held-out world
     raspv learn compare optimist --shipped  # the table shipped with the encoder (no training)
+    raspv learn patient-data                # demonstrations for the learned virtual patient (expert in quick_trial)
+    raspv learn patient-train [--ship]      # behaviour cloning → ONNX (raspv_experiments/models/learned_patient.onnx)
 
 CONFIG is a YAML file or the name of a shipped one (``raspv_learn/configs/NAME.yaml``).
 """
@@ -53,6 +55,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                 "configuration, observer and encoder are kept: a killed comparison resumes)")
 
 
+    p = sub.add_parser("patient-data", help="demonstrations for the learned virtual patient: an expert walks the "
+                                            "shipped tasks in quick_trial (one process)")
+    p.add_argument("--out", default="data/learn/patient", help="folder of episode shards (default data/learn/patient)")
+    p.add_argument("--episodes", type=int, default=12, help="episodes per task (default 12)")
+    p.add_argument("--seed", type=int, default=1)
+    p = sub.add_parser("patient-train", help="train the learned virtual patient on demonstrations; export ONNX")
+    p.add_argument("--data", default="data/learn/patient", help="demonstrations folder (default data/learn/patient)")
+    p.add_argument("--out", default="runs/learn/patient", help="run folder (default runs/learn/patient)")
+    p.add_argument("--epochs", type=int, default=30)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--ship", action="store_true", help="copy the model and its figures into raspv_experiments/models/")
+
+
 def _data_dir(args, config) -> Path:
     return Path(args.data) if args.data else Path("data") / "learn" / config.data.key()
 
@@ -65,12 +80,54 @@ def run(args: argparse.Namespace) -> int:
     from raspv_learn.config import ConfigError, load_config
     from raspv_learn.dataset import DataError
 
+    if args.learn in ("patient-data", "patient-train"):
+        return _patient(args)
     try:
         config = load_config(args.config)
         return {"dataset": _dataset, "train": _train, "compare": _compare}[args.learn](args, config)
     except (ConfigError, DataError) as exc:
         print(f"raspv learn: {exc}", file=sys.stderr)
         return 2
+
+
+def _patient(args) -> int:
+    from raspv_experiments.demonstrations import collect, default_recipe, load_demonstrations
+
+    if args.learn == "patient-data":
+        if args.episodes < 1:
+            print(f"raspv learn: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
+            return 2
+        started = time.monotonic()
+        figures = collect(default_recipe(args.episodes, args.seed), args.out)
+        print(f"{figures['frames']} frames in {figures['episodes']} episodes ({figures['expert_successes']} reached "
+              f"the goal) in {(time.monotonic() - started) / 60:.1f} min: {args.out}")
+        return 0
+    from raspv_learn.patient import PatientTraining, export_patient, train_patient
+
+    try:
+        data = load_demonstrations(args.data)
+    except FileNotFoundError as exc:
+        print(f"raspv learn: {exc}", file=sys.stderr)
+        return 2
+    recipe = json.loads((Path(args.data) / "recipe.json").read_text())
+    net, figures = train_patient(data, PatientTraining(epochs=args.epochs, seed=args.seed))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"spv": recipe["spv"], "tasks": [Path(t["world"]).stem for t in recipe["tasks"]],
+            "episodes": figures["episodes"], "frames": figures["frames"], "epochs": args.epochs, "seed": args.seed}
+    diff = export_patient(net, out / "learned_patient.onnx", meta)
+    figures["onnx_max_difference"] = diff
+    (out / "learned_patient.json").write_text(json.dumps({**meta, **figures}, indent=1))
+    print(f"validation loss {figures['best_val_loss']:.4f} (always the mean command: "
+          f"{figures['mean_command_val_loss']:.4f}); {out / 'learned_patient.onnx'}")
+    if args.ship:
+        from raspv_experiments.learned_policy import MODELS
+
+        MODELS.mkdir(parents=True, exist_ok=True)
+        shutil.copy(out / "learned_patient.onnx", MODELS / "learned_patient.onnx")
+        shutil.copy(out / "learned_patient.json", MODELS / "learned_patient.json")
+        print(f"shipped: {MODELS / 'learned_patient.onnx'}")
+    return 0
 
 
 def _dataset(args, config) -> int:

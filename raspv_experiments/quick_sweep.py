@@ -1,0 +1,203 @@
+"""A sweep file run in one process with :func:`~raspv_experiments.quick_trial.quick_trial` (no
+rclpy, no graph): every virtual subject × condition × task × repetition of the sweep, walked by
+the same cores a session runs (simulator, phosphene simulator, the policy), in seconds per trial
+instead of the lockstep graph's minutes — for sweeps with many trials on a small machine
+(``raspv experiment quick-sweep SWEEP``). The records are not a session's (no trial logs, no
+display record) but one CSV row per trial; the summary gives, per level of the sweep's first
+factor, success, collisions and completion time with bootstrap 95 % confidence intervals over
+subjects (seeded, so the same sweep gives the same table).
+
+Only conditions the phosphene simulator renders alone are run here: modes that need the scene
+node (Chess-Floor, Wall-Obstacles, …) run in sessions (``raspv experiment sweep``).
+
+Each virtual subject N has its ability (:func:`~raspv_experiments.subject_ability.subject_ability`)
+and the sweep's ``subject_params``; trial k of its session (conditions in the sweep's order,
+1-based) is seeded ``N * 100003 + k`` as the subject node seeds a session's trials.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from raspv_experiments.sweep import Sweep
+
+QUICK_INPUTS = frozenset({"color", "depth", "camera", "camera_pose"})    # what quick_trial renders
+SCENE_MODES_HINT = "run it with `raspv experiment sweep` (it needs the scene node)"
+COLUMNS = ("subject", "condition", "factors", "task", "repetition", "success", "completion_time_s", "duration_s",
+           "collisions", "path_length_m", "phosphenes_shown", "wall_s")
+
+
+@dataclass
+class QuickTrialRecord:
+    subject: int
+    condition: str
+    factors: dict[str, str]
+    task: str
+    repetition: int
+    success: bool
+    completion_time_s: float          # NaN when the goal was not reached
+    duration_s: float                 # sim time walked [s]
+    collisions: int
+    path_length_m: float
+    phosphenes_shown: int
+    wall_s: float                     # wall-clock time the trial took [s]
+
+    def row(self) -> dict[str, Any]:
+        r = {f.name: getattr(self, f.name) for f in fields(self)}
+        r["factors"] = ";".join(f"{k}={v}" for k, v in self.factors.items())
+        return r
+
+
+def _graph_params(sweep: Sweep, node: str) -> dict[str, Any]:
+    try:
+        return dict(sweep.protocol.graph.node(node).params)
+    except StopIteration:
+        return {}
+
+
+def subject_config(sweep: Sweep, subject: int, seed: int):
+    """The policy configuration of virtual subject ``subject`` (its ability, the sweep's
+    ``subject_params``), seeded ``seed``."""
+    from raspv_bringup.registry import schema_for
+    from raspv_experiments.policies import PolicyConfig
+    from raspv_experiments.subject_ability import subject_ability
+
+    p = {**schema_for("subject").defaults(), **subject_ability(subject), **sweep.subject_params, "seed": seed}
+    names = {f.name for f in fields(PolicyConfig)}
+    return PolicyConfig(**{k: v for k, v in p.items() if k in names})
+
+
+def check_quick(sweep: Sweep) -> list[str]:
+    """Why this sweep cannot run in one process (empty: it can)."""
+    from raspv_spv.modes import mode_class
+
+    problems = []
+    base = _graph_params(sweep, "spv")
+    for c in sweep.protocol.conditions:
+        mode = c.params.get("spv", {}).get("mode", base.get("mode", "depth"))
+        if mode == "learned" or not mode_class(mode).needs <= QUICK_INPUTS:
+            problems.append(f"{sweep.path}: condition {c.name}: mode {mode!r} needs the scene node; {SCENE_MODES_HINT}")
+        other = sorted(set(c.params) - {"spv"})
+        if other:
+            problems.append(f"{sweep.path}: condition {c.name}: sets {', '.join(other)} parameters; "
+                            f"quick sweeps vary only spv parameters; {SCENE_MODES_HINT}")
+    return problems
+
+
+def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
+                    progress: Callable[[str], None] | None = print) -> list[QuickTrialRecord]:
+    """Every trial of ``sweep`` with :func:`quick_trial`, in order (subject, then its conditions);
+    each row appended to ``out_csv`` (flushed) as the trial ends."""
+    from raspv_experiments.quick_trial import quick_trial
+
+    problems = check_quick(sweep)
+    if problems:
+        raise ValueError("\n".join(problems))
+    sim = _graph_params(sweep, "sim")
+    spv_base = _graph_params(sweep, "spv")
+    size = (int(sim.get("width", 160)), int(sim.get("height", 120)))
+    rate = float(sim.get("rate", 10.0))
+    reps = sweep.protocol.design.repetitions
+    plan = [(s, c, t, r) for s in sweep.subjects for c in sweep.protocol.conditions for t in sweep.protocol.tasks
+            for r in range(1, reps + 1)]
+    records: list[QuickTrialRecord] = []
+    writer, handle = None, None
+    if out_csv is not None:
+        Path(out_csv).parent.mkdir(parents=True, exist_ok=True)
+        handle = open(out_csv, "w", newline="")
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+    started = time.monotonic()
+    try:
+        trial_of: dict[int, int] = {}
+        for i, (subject, cond, task, rep) in enumerate(plan, 1):
+            trial_of[subject] = trial_of.get(subject, 0) + 1
+            config = subject_config(sweep, subject, subject * 100_003 + trial_of[subject])
+            spv = {**spv_base, **cond.params.get("spv", {}), "headless": True}
+            t0 = time.monotonic()
+            res = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
+                              (task.goal.x, task.goal.y, task.goal.radius), task.time_limit, spv=spv,
+                              policy=sweep.policy, config=config, rate=rate, size=size)
+            length = float(np.hypot(*np.diff(np.asarray(res.path), axis=0).T).sum()) if len(res.path) > 1 else 0.0
+            rec = QuickTrialRecord(subject, cond.name, dict(cond.factors), task.name, rep, res.success,
+                                   res.time_s if res.success else math.nan, res.time_s, res.collisions, length,
+                                   res.phosphenes, time.monotonic() - t0)
+            records.append(rec)
+            if writer is not None:
+                writer.writerow(rec.row())
+                handle.flush()
+            if progress is not None:
+                elapsed = time.monotonic() - started
+                eta = elapsed / i * (len(plan) - i)
+                progress(f"[{i}/{len(plan)}] S{subject:02d} {cond.name} {task.name} r{rep}: "
+                         f"{'goal' if rec.success else 'time limit'} {rec.duration_s:.1f} s, {rec.collisions} collisions "
+                         f"({rec.wall_s:.0f} s; elapsed {elapsed / 60:.1f} min, ETA {eta / 60:.1f} min)")
+    finally:
+        if handle is not None:
+            handle.close()
+    return records
+
+
+@dataclass
+class LevelSummary:
+    level: str
+    subjects: int
+    success: float                        # fraction of trials reaching the goal
+    success_ci: tuple[float, float]       # bootstrap 95 % CI over subjects
+    collisions: float                     # mean per trial
+    collisions_ci: tuple[float, float]
+    time_s: float                         # mean completion time, the time limit for trials that did not finish
+    time_ci: tuple[float, float]
+    phosphenes_shown: int
+
+
+def _bootstrap_mean_ci(values: np.ndarray, seed: int = 1) -> tuple[float, float]:
+    from scipy import stats
+
+    v = np.asarray(values, float)
+    if len(v) < 2 or np.all(v == v[0]):
+        return float(v.mean()), float(v.mean())
+    ci = stats.bootstrap((v,), np.mean, confidence_level=0.95, n_resamples=9999, method="percentile",
+                         random_state=np.random.default_rng(seed)).confidence_interval
+    return float(ci.low), float(ci.high)
+
+
+def summarise(records: list[QuickTrialRecord], time_limits: dict[str, float], factor: str | None = None,
+              levels: list[str] | None = None) -> list[LevelSummary]:
+    """Per level of ``factor`` (or per condition): each subject's mean over its trials, then the
+    mean over subjects with a percentile bootstrap 95 % CI over subjects (9999 resamples, seeded).
+    Completion time counts a trial cut off at the time limit as the limit (a lower bound)."""
+    key = (lambda r: r.factors.get(factor, r.condition)) if factor else (lambda r: r.condition)
+    order = levels or list(dict.fromkeys(key(r) for r in records))
+    out = []
+    for level in order:
+        rows = [r for r in records if key(r) == level]
+        if not rows:
+            continue
+        subjects = sorted({r.subject for r in rows})
+        per = {name: np.array([np.mean([f(r) for r in rows if r.subject == s]) for s in subjects]) for name, f in (
+            ("success", lambda r: float(r.success)), ("collisions", lambda r: float(r.collisions)),
+            ("time", lambda r: r.completion_time_s if r.success else time_limits.get(r.task, r.duration_s)))}
+        out.append(LevelSummary(level, len(subjects), float(per["success"].mean()), _bootstrap_mean_ci(per["success"]),
+                                float(per["collisions"].mean()), _bootstrap_mean_ci(per["collisions"]),
+                                float(per["time"].mean()), _bootstrap_mean_ci(per["time"]),
+                                int(np.median([r.phosphenes_shown for r in rows]))))
+    return out
+
+
+def summary_table(summaries: list[LevelSummary], factor: str) -> str:
+    """A Markdown table of :func:`summarise`'s rows."""
+    lines = [f"| {factor} | shown | subjects | success [95 % CI] | collisions/trial [95 % CI] | time s [95 % CI] |",
+             "|---|---|---|---|---|---|"]
+    for s in summaries:
+        lines.append(f"| {s.level} | {s.phosphenes_shown} | {s.subjects} | {100 * s.success:.0f} % "
+                     f"[{100 * s.success_ci[0]:.0f}, {100 * s.success_ci[1]:.0f}] | {s.collisions:.2f} "
+                     f"[{s.collisions_ci[0]:.2f}, {s.collisions_ci[1]:.2f}] | {s.time_s:.1f} "
+                     f"[{s.time_ci[0]:.1f}, {s.time_ci[1]:.1f}] |")
+    return "\n".join(lines)
