@@ -50,6 +50,13 @@ def export_encoder(encoder: Encoder, config: LearnConfig, num_levels: int, path:
     with torch.no_grad():
         ours = encoder(x).numpy()
     theirs = loaded.session.run(None, {"inputs": x.numpy()})[0]
+    return keep_if_it_matches(tmp, path, ours, theirs)
+
+
+def keep_if_it_matches(tmp: Path, path: Path, ours: np.ndarray, theirs: np.ndarray) -> float:
+    """Move the exported model ``tmp`` to ``path`` when onnxruntime's output ``theirs`` is torch's
+    ``ours`` to :data:`EXPORT_TOLERANCE`; otherwise delete it and raise RuntimeError. Returns the
+    largest difference."""
     diff = float(np.abs(ours - theirs).max())
     if diff > EXPORT_TOLERANCE:
         tmp.unlink(missing_ok=True)

@@ -14,7 +14,6 @@ demonstrations and settings give the same weights (single-threaded torch).
 from __future__ import annotations
 
 import json
-import os
 import time
 import warnings
 from dataclasses import asdict, dataclass
@@ -25,7 +24,8 @@ import numpy as np
 import torch
 from torch import nn
 
-EXPORT_TOLERANCE = 1e-5
+from raspv_learn.export import keep_if_it_matches
+
 TURN_WEIGHT = 2.0
 
 
@@ -111,7 +111,7 @@ def train_patient(data: dict[str, np.ndarray], settings: PatientTraining | None 
 
 def export_patient(net: PatientNet, path: str | Path, metadata: dict[str, Any]) -> float:
     """Write ``net`` to ``path`` as ONNX (atomically) with ``raspv_patient`` metadata; checked:
-    onnxruntime must give torch's output to ``EXPORT_TOLERANCE``. Returns the largest difference."""
+    onnxruntime must give torch's output to ``raspv_learn.export.EXPORT_TOLERANCE``. Returns the largest difference."""
     import onnx
     import onnxruntime as ort
 
@@ -135,9 +135,4 @@ def export_patient(net: PatientNet, path: str | Path, metadata: dict[str, Any]) 
         ours = net(image, goal).numpy()
     theirs = ort.InferenceSession(str(tmp), providers=["CPUExecutionProvider"]).run(
         ["command"], {"image": image.numpy(), "goal": goal.numpy()})[0]
-    diff = float(np.abs(ours - theirs).max())
-    if diff > EXPORT_TOLERANCE:
-        tmp.unlink(missing_ok=True)
-        raise RuntimeError(f"ONNX export differs from torch by {diff:.2e} (> {EXPORT_TOLERANCE})")
-    os.replace(tmp, path)
-    return diff
+    return keep_if_it_matches(tmp, path, ours, theirs)
