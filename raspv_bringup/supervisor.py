@@ -39,8 +39,14 @@ SPARE_DELAY_S = 5.0       # a warm spare is started this long after its node, no
 MAX_SPARE_FAILURES = 2    # spares that die unasked before this node gets no more of them
 
 
-def _die_with_parent() -> None:  # runs in the child between fork and exec
+def stop_with_parent() -> None:  # runs in a child between fork and exec
+    """SIGTERM to this process when the one that started it dies (PR_SET_PDEATHSIG): a killed
+    launcher, benchmark or test leaves nothing running."""
     _libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    stop_with_parent()
     # SIGINT stays pending until node_entry is ready to turn it into a quiet exit: delivered
     # while the interpreter itself starts, it aborts with a "Fatal Python error" report.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})

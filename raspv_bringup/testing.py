@@ -11,7 +11,6 @@
 """
 from __future__ import annotations
 
-import ctypes
 import os
 import re
 import signal
@@ -26,6 +25,7 @@ import psutil
 import yaml
 
 from raspv_bringup.middleware import middleware_env
+from raspv_bringup.supervisor import stop_with_parent   # the launcher stops its nodes when a test or bench dies
 from raspv_common.ros_domains import lock_free_domain
 
 PARAM_RETRY_S = 5.0       # a parameter request without an answer is sent again after this [s]
@@ -71,12 +71,6 @@ class GraphStopped(AssertionError):
     """The graph ended while the test was waiting for it."""
 
 
-def _stop_with_parent() -> None:  # runs in the launcher between fork and exec
-    """The launcher gets SIGTERM (and stops its nodes) when the process that started it dies —
-    a benchmark or test killed with SIGTERM or SIGKILL leaves no graph behind."""
-    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)      # PR_SET_PDEATHSIG
-
-
 class RunningGraph:
     """``raspv launch`` of a graph in a subprocess (its own process group)."""
 
@@ -94,7 +88,7 @@ class RunningGraph:
         # node logs (the launcher's and rcl's) stay with the test's files, not in ~/.ros/log
         full_env = {**os.environ, "ROS_LOG_DIR": str(workdir / "ros_log"), **(env or {})}
         self.proc = subprocess.Popen(cmd, stdout=self._log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                     env=full_env, start_new_session=True, preexec_fn=_stop_with_parent)
+                                     env=full_env, start_new_session=True, preexec_fn=stop_with_parent)
         self._children: set[int] = set()
         self.returncode: int | None = None
 
