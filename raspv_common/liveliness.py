@@ -24,7 +24,8 @@ Per input it reports one of the states of :mod:`raspv_spv.staleness`: ``alive`` 
 lives and delivers), ``paused``, ``gone`` (its producers died, are stopped, or announced
 ``down``) or ``unknown`` (its publishers announce nothing: a foreign driver, a test probe).
 A producer whose alive publisher is in the ROS graph but whose announcement has not reached the
-consumer yet (a graph starting: the consumer's subscription still matching) counts as ``alive``:
+consumer yet (a graph starting: the consumer's subscription still matching) counts as ``alive``
+unless another producer of the input is known dead (:func:`combined_state`):
 it is a RASPV node that started — judging its first frames by the crash detector's 0.26 s bound
 showed the no-data ring while a loaded machine started the graph. The first message of an input
 whose producers are not known yet triggers the lookup at once (not at the next :data:`REFRESH_S`).
@@ -54,6 +55,7 @@ EAGER_REFRESH_S = 0.1  # an input from producers not known yet: looked up at mos
 DELIVERING, PAUSED, DOWN = "delivering", "paused", "down"
 # producer states per input (the same strings as raspv_spv.staleness: ALIVE, PAUSED, GONE, UNKNOWN)
 ALIVE, GONE, UNKNOWN = "alive", "gone", "unknown"
+PENDING = "pending"    # a producer's verdict only: its alive publisher is in the graph, its announcement not yet here
 
 
 def alive_topic(node_fqn: str) -> str:
@@ -121,7 +123,7 @@ class _Producer:
             return {PAUSED: PAUSED, DOWN: GONE}.get(self.state, ALIVE)
         if self.ever_alive:
             return GONE
-        return ALIVE if self.announces and not self.heard else UNKNOWN   # its announcement is on its way
+        return PENDING if self.announces and not self.heard else UNKNOWN   # its announcement is on its way
 
 
 class ProducerWatch:
@@ -200,9 +202,19 @@ class ProducerWatch:
         states = {}
         for input_name, topic in list(self._topics.items()):
             verdicts = {p.verdict for n in self._publishers.get(topic, ()) if (p := self._producers.get(n)) is not None}
-            states[input_name] = next((v for v in (ALIVE, PAUSED, GONE) if v in verdicts), UNKNOWN)
+            states[input_name] = combined_state(verdicts)
         if states != self._states:
             self._states = states
+
+
+def combined_state(verdicts: set[str]) -> str:
+    """An input's state from its producers' verdicts: alive, paused, gone, then a producer whose
+    announcement is still on its way (alive: a graph starting), else unknown. A dead producer
+    outranks a pending one, so a camera killed while its replacement starts is shown at once."""
+    state = next((v for v in (ALIVE, PAUSED, GONE) if v in verdicts), None)
+    if state is not None:
+        return state
+    return ALIVE if PENDING in verdicts else UNKNOWN
 
 
 def _fqn(namespace: str, name: str) -> str:

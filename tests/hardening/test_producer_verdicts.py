@@ -23,7 +23,11 @@ def test_a_publisher_that_announces_nothing_is_unknown():
 def test_a_raspv_node_whose_announcement_is_on_its_way_is_alive():
     p = L._Producer()
     p.announces = True
-    assert p.verdict == L.ALIVE
+    assert p.verdict == L.PENDING
+    assert L.combined_state({L.PENDING}) == L.ALIVE                   # a graph starting
+    assert L.combined_state({L.PENDING, L.GONE}) == L.GONE            # the old camera died, its replacement starts
+    assert L.combined_state({L.PENDING, L.PAUSED}) == L.PAUSED
+    assert L.combined_state({L.UNKNOWN}) == L.UNKNOWN
 
 
 def test_once_heard_a_local_node_is_judged_by_its_process():
@@ -56,4 +60,4 @@ def test_a_garbled_announcement_changes_nothing():
     p.announces = True
     p.announced("[1, 2")
     p.announced("[1, 2]")
-    assert p.verdict == L.ALIVE and not p.heard
+    assert p.verdict == L.PENDING and not p.heard
