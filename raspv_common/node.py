@@ -9,6 +9,7 @@ turns configuration mistakes into one clear line, and shuts down cleanly on SIGI
 from __future__ import annotations
 
 import faulthandler
+import os
 import sys
 import time
 from typing import Any, Callable, Sequence
@@ -29,7 +30,7 @@ from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.liveliness import AliveAnnouncement
 from raspv_common.params import Param, ParamSchema
 from raspv_common.startup_timing import startup_mark
-from raspv_common.thread_priority import raise_thread_priority
+from raspv_common.thread_priority import BACKGROUND_NICE, lower_process_priority, raise_thread_priority
 
 
 class ConfigurationError(Exception):
@@ -179,13 +180,17 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error,
     or the node's ``exit_code`` when it shut itself down with one. ``priority``: a node on the
     path from the wearer's head to the phosphenes ("headset": spv, bridge) runs real-time where
-    allowed, set before rclpy starts so that its middleware threads inherit it
+    allowed, set before rclpy starts so that its middleware threads inherit it; the simulator
+    ("simulator") and perception ("perception") yield to it when the machine is short
     (``raspv_common.thread_priority``)."""
     args = list(sys.argv if argv is None else argv)
     if priority == "headset":
         raise_thread_priority(realtime=True)
+    elif priority in BACKGROUND_NICE:
+        if os.environ.get("RASPV_BACKGROUND_PRIORITY", "on") != "off":     # "off": comparison runs (bench qoe)
+            lower_process_priority(BACKGROUND_NICE[priority])
     elif priority != "normal":
-        raise ValueError(f"priority must be normal or headset, got {priority!r}")
+        raise ValueError(f"priority must be normal, headset, {' or '.join(BACKGROUND_NICE)}, got {priority!r}")
     rclpy.init(args=args)
     startup_mark("rclpy initialised")
     node = None

@@ -10,6 +10,9 @@ ask for a higher priority, as VR compositors do:
   throttling keeps 5 % of every second for normal processes whatever happens;
 - otherwise, or when that is not allowed: a lower nice value (``HEADSET_NICE``).
 
+The processes whose late result is carried (the simulator, perception) lower themselves instead
+(:func:`lower_process_priority`, ``SIMULATOR_NICE``, ``PERCEPTION_NICE``), which needs no permission.
+
 Both need root or CAP_SYS_NICE (or RLIMIT_RTPRIO / RLIMIT_NICE); without them nothing changes and
 the thread runs as before. Threads created afterwards inherit the class and nice value, so
 background work in such a process lowers itself with :func:`lower_thread_priority`.
@@ -22,6 +25,12 @@ import threading
 from contextlib import contextmanager
 
 HEADSET_NICE = -10           # display thread and headset server thread (without real-time permission)
+# Processes whose late result is carried, not shown as a fault, yield the cores to the wearer's
+# path (display, bridge, the browser page) when the machine is short: lower rates chosen on
+# purpose instead of display frames dropped at random. Raising a nice value needs no permission.
+SIMULATOR_NICE = 5           # the simulated world and its camera: behind the display, ahead of perception
+PERCEPTION_NICE = 10         # scene, stairs, segmentation, odometry, planner, 3-D views
+BACKGROUND_NICE = {"simulator": SIMULATOR_NICE, "perception": PERCEPTION_NICE}
 HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv, bridge)
 DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
@@ -44,6 +53,30 @@ def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False,
         return True
     except (AttributeError, OSError):
         return False
+
+
+def lower_process_priority(nice: int) -> str:
+    """Give this process ``nice`` before it starts threads (they inherit it); what was done.
+
+    Linux with autogroup (``/proc/sys/kernel/sched_autogroup_enabled``, the default of most
+    distributions) shares the CPU between *sessions* first and applies a thread's nice value only
+    within its session: a process the launcher started in a session of its own (it is the
+    session leader) therefore also sets its session's nice (``/proc/self/autogroup``). A process
+    started from a user's shell shares that shell's session and leaves it alone."""
+    done = []
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, max(nice, os.getpriority(os.PRIO_PROCESS, 0)))
+        done.append(f"nice {nice}")
+    except (AttributeError, OSError):
+        pass
+    try:
+        if os.getsid(0) == os.getpid():
+            with open("/proc/self/autogroup", "w") as f:
+                f.write(str(nice))
+            done.append(f"session nice {nice}")
+    except (AttributeError, OSError):
+        pass
+    return ", ".join(done) or "unchanged"
 
 
 def lower_thread_priority(nice: int) -> None:

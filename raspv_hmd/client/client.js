@@ -283,7 +283,7 @@
     const sp = levels.sprites, image = levels.image();
     const w = sp.width, h = sp.height, eyes = S.stereo ? 2 : 1;
     if (view.width !== w * eyes || view.height !== h) { view.width = w * eyes; view.height = h; }
-    view.classList.add("native");
+    if (!view.classList.contains("native")) view.classList.add("native");
     const [ox, oy] = (readyMeta && readyMeta.offset) || [0, 0];      // eye gaze: the field drawn shifted
     if (ox || oy || shiftedBefore) { ctx.fillStyle = "#000"; ctx.fillRect(0, 0, view.width, view.height); }
     shiftedBefore = !!(ox || oy);
@@ -312,7 +312,7 @@
       shown();
       return;
     }
-    view.classList.remove("native");
+    if (view.classList.contains("native")) view.classList.remove("native");
     resize();
     if (gpuDraw) {                                // WebGL: the levels image, or an image frame as a texture
       levels.clear(null);
@@ -631,15 +631,22 @@
   function showMessage(text, ok) { S.lastStatus = text; const el = $("message"); el.textContent = text; el.className = ok ? "" : "bad"; }
   function median(a) { const s = [...a].sort((x, y) => x - y); return s[Math.floor(s.length / 2)]; }
 
+  // The status line changes at most STATUS_MS apart and only when its text does: a text node
+  // replaced every frame is a relayout and a repaint of the overlay over the phosphenes each frame.
+  const STATUS_MS = 250;
+  let statusAt = -Infinity;
   function updateStatus(now) {
     if (now - fpsSince >= 1000) { S.fps = fpsCount * 1000 / (now - fpsSince); fpsCount = 0; fpsSince = now; }
+    if (now - statusAt < STATUS_MS) return;
+    statusAt = now;
     const parts = [];
     if (S.size) parts.push(`${S.size} ${S.format || ""}`);
     parts.push(`${S.fps.toFixed(1)} fps`);
     if (S.rttMs !== null) parts.push(`RTT ${S.rttMs.toFixed(1)} ms`);
     if (S.ageMs !== null) parts.push(`frame age ${Math.max(0, S.ageMs).toFixed(0)} ms`);
-    $("rates").textContent = parts.join(" · ");
+    setText($("rates"), parts.join(" · "));
   }
+  function setText(el, text) { if (el.textContent !== text) el.textContent = text; }
 
   // ---- main loop --------------------------------------------------------------------------
   function step(now) {
