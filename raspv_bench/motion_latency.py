@@ -228,7 +228,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--warmup", type=float, default=2.0)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--gaze", action="store_true", help="step the gaze (120 Hz samples), not the head")
+    parser.add_argument("--priority", choices=("headset", "normal"), default="normal",
+                        help="headset: real-time where allowed, as the headset's own processor (bench e2e)")
     args = parser.parse_args(argv)
+    if args.priority == "headset":
+        from raspv_common.thread_priority import raise_thread_priority
+        raise_thread_priority(realtime=True)
     from raspv_hmd.reference_client import ClientError
 
     schedule = StepSchedule(args.steps, args.amplitude, args.hold, warmup_s=args.warmup, seed=args.seed)

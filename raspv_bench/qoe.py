@@ -55,6 +55,8 @@ class FrameLog:
     shown: dict[str, int] = field(default_factory=dict)      # "configured" / "fallback:<mode>" / "no_data"
     ticks: list[float] = field(default_factory=list)          # header stamps [s] while counting
     modes: list[tuple[float, float, str]] = field(default_factory=list)   # (receipt, display tick, mode) [s, wall]
+    sources: set[float] = field(default_factory=set)         # camera frames shown while counting (their stamps)
+    scenes: set[float] = field(default_factory=set)          # scene results used while counting (their depth frames)
 
     def add(self, msg) -> None:
         stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
@@ -68,22 +70,29 @@ class FrameLog:
             if self.counting:
                 self.shown[what] = self.shown.get(what, 0) + 1
                 self.ticks.append(stamp)
+                for stamps, t in ((self.sources, msg.source_stamp), (self.scenes, msg.scene_stamp)):
+                    if t.sec or t.nanosec:
+                        stamps.add(t.sec + 1e-9 * t.nanosec)
 
 
-def _chromium_cpu() -> tuple[float, int]:
-    """(CPU seconds, processes) of every chromium process this process started."""
+def _chromium_cpu() -> tuple[float, int, float]:
+    """(CPU seconds, processes) of every chromium process this process started, and the CPU
+    seconds of this process with its browser driver (what the measuring itself costs)."""
     import psutil
 
-    total, n = 0.0, 0
-    for p in psutil.Process().children(recursive=True):
+    total, n, own = 0.0, 0, 0.0
+    me = psutil.Process()
+    for p in [me, *me.children(recursive=True)]:
         try:
+            t = p.cpu_times()
             if "chrom" in p.name():
-                t = p.cpu_times()
                 total += t.user + t.system
                 n += 1
+            elif p is me or p.name() == "node":
+                own += t.user + t.system
         except psutil.Error:
             continue
-    return total, n
+    return total, n, own
 
 
 def _percentiles(values: list[float], *ps: float) -> list[float]:
@@ -191,6 +200,7 @@ def _measure(g, page, frames: FrameLog, status: list[dict], minutes: float, rate
     first = page.evaluate(state)
     with frames.lock:
         frames.counting, frames.shown, frames.ticks = True, {}, []
+        frames.sources, frames.scenes = set(), set()
     fps, ages = [], []
     end = t0 + 60 * minutes
     while time.monotonic() < end:
@@ -204,15 +214,17 @@ def _measure(g, page, frames: FrameLog, status: list[dict], minutes: float, rate
     with frames.lock:
         frames.counting = False
         shown, ticks = dict(frames.shown), list(frames.ticks)
+        inputs_hz = {name: len(stamps) / (max(stamps) - min(stamps)) if len(stamps) > 1 else 0.0
+                     for name, stamps in (("camera", frames.sources), ("scene", frames.scenes))}
     wall = time.monotonic() - t0
     cpu1, chrome1, ticks1 = g.cpu_by_kind(), _chromium_cpu(), RunningGraph.machine_ticks()
     last = page.evaluate(state)
     episodes = (status[-1]["stale_episodes"] if status else 0) - episodes0
     late = (status[-1].get("late_episodes", 0) if status else 0) - late0
     nodes = {k: 100 * (t1 - cpu0[k][1]) / wall for k, (pid, t1) in cpu1.items() if k in cpu0 and cpu0[k][0] == pid}
-    return {"wall": wall, "fps": fps, "ages": ages, "shown": shown, "ticks": _dropped(ticks, rate),
+    return {"wall": wall, "fps": fps, "inputs_hz": inputs_hz, "ages": ages, "shown": shown, "ticks": _dropped(ticks, rate),
             "episodes": episodes, "late": late, "nodes": nodes, "chromium": 100 * (chrome1[0] - chrome0[0]) / wall,
-            "chromium_processes": chrome1[1], "machine": RunningGraph.machine_share(ticks0, ticks1),
+            "chromium_processes": chrome1[1], "bench": 100 * (chrome1[2] - chrome0[2]) / wall, "machine": RunningGraph.machine_share(ticks0, ticks1),
             "load": os.getloadavg()[0], "frames_client": last["shown"] - first["shown"],
             "bytes": last["bytes"] - first["bytes"], "levels": last["levels"], "acc": last["acc"],
             "format": last["format"], "status": status[-1] if status else {}}
@@ -231,12 +243,16 @@ def _report(r: dict, failures: list[str]) -> None:
     n, missed = r["ticks"]
     print(f"  display: {n} frames in {minutes:.1f} min, {missed} ticks missed ({100 * missed / max(1, n + missed):.2f} %); "
           f"{share:.2f} % in the configured mode{' (' + other + ')' if other else ''}")
+    rates = ", ".join(f"{k} {v:.1f} Hz" for k, v in r["inputs_hz"].items() if v)
+    print(f"  inputs as the display used them: {rates or 'none'} (the simulator and perception yield to the "
+          f"display and the page when the cores are short: docs/spv.md, Priorities)")
     print(f"  stale episodes: {r['episodes']} ({r['episodes'] / minutes:.1f} per minute), of them late from a live node "
           f"{r['late']}; producers {r['status'].get('producers', {})}")
     nodes = ", ".join(f"{k} {v:.0f}" for k, v in sorted(r["nodes"].items()))
     total_cpu = sum(r["nodes"].values()) + r["chromium"]
     print(f"  CPU (% of one core): {nodes}, chromium {r['chromium']:.0f} ({r['chromium_processes']} processes) — "
-          f"{total_cpu:.0f} of {100 * (os.cpu_count() or 1)}; {r['machine']}; load average {r['load']:.1f}")
+          f"{total_cpu:.0f} of {100 * (os.cpu_count() or 1)}; {r['machine']}; load average {r['load']:.1f}; "
+          f"the measuring itself (probe, browser driver) {r['bench']:.0f}")
     per_frame = r["bytes"] / max(1, r["frames_client"])
     fps_client = r["frames_client"] / r["wall"]
     png = (f"; the same frames as PNG images: {r['png'] / 1e3:.1f} kB per frame, "
@@ -274,7 +290,8 @@ def _png_bytes(probe, count: int = 25) -> float | None:
 
 def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
     """Head-yaw steps from a step client (the browser hands it control and stays open), with
-    the temporal model off as in ``raspv bench e2e``."""
+    the temporal model off and the client at the headset's priority as in ``raspv bench e2e``
+    (it stands in for the headset's own processor)."""
     from raspv_bench.motion_latency import analyse_steps
 
     url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=5).group(1)
@@ -289,7 +306,8 @@ def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
     page.wait_for_function("() => window.raspvClient.role === 'watch'", timeout=10_000)
     out = workdir / "steps.npz"
     try:
-        done = subprocess.run([sys.executable, "-m", "raspv_bench.motion_latency", url, str(out), "--steps", str(steps)],
+        done = subprocess.run([sys.executable, "-m", "raspv_bench.motion_latency", url, str(out), "--steps", str(steps),
+                               "--priority", "headset"],
                               capture_output=True, text=True, timeout=60 + steps * 3)
     except subprocess.TimeoutExpired:
         print(f"  head-turn steps: the step client did not finish within {60 + steps * 3} s")

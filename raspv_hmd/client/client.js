@@ -50,7 +50,7 @@
   const S = {
     connected: false, role: null, clientId: null, format: null, closedFor: null,
     stereo: params.get("stereo") === "1", green: params.get("green") === "1",
-    framesReceived: 0, framesShown: 0, lastShownSeq: 0, size: null,
+    framesReceived: 0, framesShown: 0, framesReplaced: 0, lastShownSeq: 0, size: null,
     drawsLevels: !!levels, drawer: levels ? (gpuDraw ? "webgl" : "cpu") : null, drawMs: 0, presentMs: 0,
     get accumulation() { return levels ? levels.accumulation : null; }, spritesMapId: null,
     framesFallback: 0, framesNoData: 0, lastNoData: false, bytesReceived: 0, spritesBytes: 0, localRing: false,
@@ -78,7 +78,8 @@
     return { width: w, height: h, pixels, seq: readyMeta ? readyMeta.seq : 0, offset: S.fieldOffset };
   };
 
-  let ws = null, pending = null, decoding = false, readySeq = 0, readyMeta = null;
+  const JITTER_FRAMES = Math.max(1, Math.round(Number(params.get("jitter"))) || 2);   // frames held for the next animation frames (onFrame)
+  let ws = null, pending = [], behind = 0, decoding = false, readySeq = 0, readyMeta = null;
   let headDirty = false, lastTwistSent = 0, xrSession = null, xrGl = null;
   let clockOffset = null, bestRtt = Infinity;
   const rtts = [];
@@ -159,7 +160,12 @@
     if (buf.byteLength < HEADER_BYTES) return;
     S.framesReceived++;
     S.bytesReceived += buf.byteLength;
-    pending = buf;                              // newer frames replace ones not yet decoded
+    // Frames wait for the page's next animation frame in a queue of JITTER_FRAMES: two that
+    // arrive within one display interval (a late timer, a busy core) are both shown, on consecutive
+    // animation frames, instead of the first being replaced unseen; when the page falls behind for
+    // longer, the oldest are dropped, so a frame never waits more than that many intervals.
+    pending.push(buf);
+    while (pending.length > JITTER_FRAMES) { pending.shift(); S.framesReplaced++; }
   }
 
   // ---- decoding ---------------------------------------------------------------------------
@@ -167,8 +173,10 @@
   for (let v = 0; v < 256; v++) { GREY[v] = 0xff000000 | (v << 16) | (v << 8) | v; GREEN[v] = 0xff000000 | (v << 8); }
 
   function decodePending() {
-    if (!pending || decoding) return;
-    const buf = pending; pending = null;
+    if (!pending.length || decoding) return;
+    behind = pending.length > 1 ? behind + 1 : 0;
+    if (behind > JITTER_FRAMES) { S.framesReplaced += pending.length - 1; pending.splice(0, pending.length - 1); behind = 0; }
+    const buf = pending.shift();
     const dv = new DataView(buf);
     const magic = String.fromCharCode(...new Uint8Array(buf, 0, 4));
     if (magic !== "RSPV") return;
