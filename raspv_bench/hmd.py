@@ -95,6 +95,21 @@ def _run_client(url: str, seconds: float, fmt: str, head: bool = True) -> dict:
     return json.loads(out.stdout)
 
 
+def _paced(rate: float, stop: threading.Event, send) -> threading.Thread:
+    """A started thread calling ``send(i)`` for i = 0, 1, … at ``rate`` Hz (no drift) until ``stop``."""
+    def feed() -> None:
+        period, i, next_t = 1.0 / rate, 0, time.monotonic()
+        while not stop.is_set():
+            send(i)
+            i += 1
+            next_t += period
+            stop.wait(max(0.0, next_t - time.monotonic()))
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    return feeder
+
+
 def core_bench(args, frames: list[np.ndarray]) -> list[str]:
     from raspv_hmd.server import Callbacks, HeadsetServer, ServerConfig
 
@@ -102,17 +117,7 @@ def core_bench(args, frames: list[np.ndarray]) -> list[str]:
     callbacks = Callbacks(on_head_orientation=lambda q, t: head_latency.append(1e3 * (time.time() - t)) if t else None)
     server = HeadsetServer(ServerConfig(port=0, tcp_port=0), callbacks).start()
     stop = threading.Event()
-
-    def feed() -> None:
-        period, i, next_t = 1.0 / args.rate, 0, time.monotonic()
-        while not stop.is_set():
-            server.submit_frame(frames[i % len(frames)], time.time())
-            i += 1
-            next_t += period
-            stop.wait(max(0.0, next_t - time.monotonic()))
-
-    feeder = threading.Thread(target=feed, daemon=True)
-    feeder.start()
+    feeder = _paced(args.rate, stop, lambda i: server.submit_frame(frames[i % len(frames)], time.time()))
     h, w = frames[0].shape[:2]
     print(f"part 2 — server core on loopback, {w}x{h} at {args.rate:g} Hz, client in another process, "
           f"{args.seconds:g} s per case")
@@ -168,19 +173,14 @@ def ros_bench(args, frames: list[np.ndarray]) -> list[str]:
         pub = probe.publisher(topics.SPV_IMAGE, Image, qos=SENSOR_QOS)
         messages = [array_to_image(f, "mono8") for f in frames]
 
-        def feed() -> None:
-            period, i, next_t = 1.0 / args.rate, 0, time.monotonic()
-            clock = probe.node.get_clock()
-            while not stop.is_set():
-                msg = messages[i % len(messages)]
-                msg.header.stamp = clock.now().to_msg()
-                pub.publish(msg)
-                i += 1
-                next_t += period
-                stop.wait(max(0.0, next_t - time.monotonic()))
+        clock = probe.node.get_clock()
 
-        feeder = threading.Thread(target=feed, daemon=True)
-        feeder.start()
+        def send(i: int) -> None:
+            msg = messages[i % len(messages)]
+            msg.header.stamp = clock.now().to_msg()
+            pub.publish(msg)
+
+        feeder = _paced(args.rate, stop, send)
         h, w = frames[0].shape[:2]
         print(f"part 3 — through ROS (domain {domain}): /spv/image {w}x{h} mono8 at {args.rate:g} Hz → bridge node → "
               f"client; client head → /head/orientation → subscriber")

@@ -116,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"raspv bench qoe: needs Debian's chromium at {CHROMIUM} (apt-get install -y chromium)")
         return 2
     try:
+        from playwright.sync_api import Error as BrowserError
         from playwright.sync_api import sync_playwright
     except ImportError:
         print("raspv bench qoe: needs the playwright Python package (pip install playwright)")
@@ -173,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
                     _kill(g, frames, args.kill, failures)
             finally:
                 context.close()
-    except (GraphStopped, TimeoutError, RuntimeError) as exc:
+    except (GraphStopped, TimeoutError, RuntimeError, BrowserError) as exc:      # (the browser's timeouts too)
         print(f"  failed: {exc}\n{g.output[-2000:]}")
         return 1
     finally:
