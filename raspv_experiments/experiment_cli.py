@@ -217,6 +217,12 @@ def _sweep(args) -> int:
         print("\n".join(exc.errors), file=sys.stderr)
         return 2
     bad = [r for r in results if r["code"] != 0]
+    stopped = [r for r in results if r.get("error")]
+    if stopped:
+        print(f"sweep stopped: {len(stopped)} of {len(results)} sessions did not finish ({stopped[0]['subject']}: "
+              f"{stopped[0]['error']}); continue them with: raspv experiment sweep {args.sweep} --resume"
+              + (f" --out {args.out}" if args.out else ""), file=sys.stderr)
+        return 1
     print(f"sweep done: {len(results)} sessions in {out / 'sessions'}; report: raspv experiment report {out}")
     return 1 if bad else 0
 

@@ -96,6 +96,34 @@ class TrialMonitor:
 
 
 @dataclass
+class ClockWatch:
+    """Whether the simulation clock stands still: the wall seconds the runner itself watched it
+    not advance. A gap between two polls longer than ``max_gap_s`` — the runner was suspended or
+    starved of CPU (a paused process group, a loaded machine), so the graph was too — counts as
+    ``max_gap_s`` only: a pause of the whole machine is not the graph's stall."""
+
+    stall_s: float = 60.0               # watched seconds without a new sim time: stuck
+    max_gap_s: float = 1.0              # the most one poll-to-poll gap counts
+    still_s: float = 0.0
+    last_t: float | None = None
+    last_wall: float | None = None
+
+    def update(self, sim_t: float | None, wall: float) -> bool:
+        """A poll: the sim time [s] (None: none yet) at monotonic ``wall`` [s]; True once stuck."""
+        if self.last_wall is not None:
+            if sim_t is not None and sim_t != self.last_t:
+                self.still_s = 0.0
+            else:
+                self.still_s += min(max(0.0, wall - self.last_wall), self.max_gap_s)
+        self.last_t, self.last_wall = sim_t, wall
+        return self.still_s > self.stall_s
+
+    def reset(self) -> None:
+        """Start again (after the experimenter's pause: the world held still on purpose)."""
+        self.still_s, self.last_t, self.last_wall = 0.0, None, None
+
+
+@dataclass
 class ViewState:
     """What the experimenter's status line shows."""
 

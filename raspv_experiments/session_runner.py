@@ -37,10 +37,10 @@ from raspv_experiments.metrics import trajectory_record, trial_metrics
 from raspv_experiments.protocol import Protocol, Task, uses_gaze
 from raspv_experiments.runner_node import GraphClient
 from raspv_experiments.session import SessionError, SessionFolder, now_iso
-from raspv_experiments.session_control import ExperimenterControl, TrialMonitor, ViewState
+from raspv_experiments.session_control import ClockWatch, ExperimenterControl, TrialMonitor, ViewState
 from raspv_experiments.world_geometry import world_geometry
 
-STALL_S = 60.0            # wall seconds without the simulation clock advancing: the graph is stuck
+STALL_S = 60.0            # wall seconds the runner watched the simulation clock stand: the graph is stuck
 START_TIMEOUT_S = 180.0   # wall seconds for a graph to come up
 BAG_START_S = 60.0        # wall seconds for a trial's bag recorder to subscribe
 
@@ -398,16 +398,20 @@ class SessionRunner:
     def _monitor(self, monitor: TrialMonitor) -> str | None:
         """Poll until the trial ends; returns the experimenter's request (repeat/skip/quit) or None."""
         paused = False
+        watch = ClockWatch(STALL_S)
         while True:
             self._check_graph()
-            t, pose, still = self.client.state()
+            t, pose, _ = self.client.state()
             if self.control.paused != paused:
                 paused = self.control.paused
                 self.client.set_params("sim", {"paused": paused})
                 self.show(phase="paused" if paused else "running")
-            if not paused and still > STALL_S:
-                raise SessionError(f"the simulation clock did not advance for {STALL_S:.0f} s; see "
-                                   f"{self.folder.root / 'graph.log'}")
+            if paused:
+                watch.reset()
+            elif watch.update(t, time.monotonic()):
+                raise SessionError(f"the simulation clock did not advance for {STALL_S:.0f} s (the graph is stuck or "
+                                   f"starved of CPU); see {self.folder.root / 'graph.log'}; the trial is not "
+                                   "recorded: --resume runs it again")
             for c in self.client.take_collisions():
                 monitor.collision(f"{c['class']}:{c['name']}")
             if any(r.get("action") == "abort" for r in self.client.take_responses()):

@@ -224,6 +224,8 @@ def run_job(sweep_path: str, number: int, out: str, resume: bool,
     shared disk still gets them)."""
     from raspv_bringup.middleware import apply_middleware_defaults
     from raspv_experiments.domains import private_domain
+    from raspv_experiments.runner_node import RunnerError
+    from raspv_experiments.session import SessionError
     from raspv_experiments.session_runner import RunOptions, SessionRunner
 
     sweep = load_sweep(sweep_path)
@@ -234,15 +236,22 @@ def run_job(sweep_path: str, number: int, out: str, resume: bool,
                              lockstep=True, headless=True, keys=False, subject_params=dict(sweep.subject_params))
         log = io.StringIO()
         view = _LineView(log)
-        runner = SessionRunner(sweep.protocol, options, view)
+        runner, error = None, None
         try:
+            runner = SessionRunner(sweep.protocol, options, view)
             code = runner.run()
+        except (SessionError, RunnerError) as exc:      # a stuck graph, a session that cannot start: one line
+            code, error = 1, str(exc)
+            view.say(f"stopped: {exc}")
         finally:
-            runner.close()
-        folder = runner.folder
-        return {"subject": subject, "domain": domain, "code": code, "session": str(folder.root),
-                "host": os.uname().nodename, "session_json": folder.info_path.read_text(),
-                "records": folder.records(), "log": log.getvalue()}
+            if runner is not None:
+                runner.close()
+        folder = runner.folder if runner is not None else None
+        started = folder is not None and folder.info_path.exists()
+        return {"subject": subject, "domain": domain, "code": code, "error": error,
+                "session": str(folder.root) if folder is not None else None, "host": os.uname().nodename,
+                "session_json": folder.info_path.read_text() if started else None,
+                "records": folder.records() if started else [], "log": log.getvalue()}
 
 
 class _LineView:
@@ -263,6 +272,8 @@ class _LineView:
 
 def _store(result: dict[str, Any], out: Path) -> None:
     """Write a job's session where the driver expects it (a Ray node without a shared disk)."""
+    if result.get("session_json") is None:          # stopped before its session started
+        return
     info = json.loads(result["session_json"])
     folder = out / "sessions" / info["protocol"] / result["subject"]
     if (folder / "trials.jsonl").exists():
@@ -298,11 +309,11 @@ def run_sweep(sweep: Sweep, out: Path, workers: int | None = None, ray_address: 
         ctx = multiprocessing.get_context("spawn")
         progress = SweepProgress(out / "sessions" / sweep.name, _total_trials(sweep), say)
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            pending = {pool.submit(run_job, *job) for job in jobs}
+            pending = {pool.submit(run_job, *job): job for job in jobs}
             while pending:
-                done, pending = cf.wait(pending, timeout=PROGRESS_PERIOD_S, return_when=cf.FIRST_COMPLETED)
+                done, _ = cf.wait(pending, timeout=PROGRESS_PERIOD_S, return_when=cf.FIRST_COMPLETED)
                 for fut in done:
-                    results.append(_finished(fut.result(), say))
+                    results.append(_finished(_result(fut, pending.pop(fut)[1], sweep.policy), say))
                 progress.update()
     for r in results:
         _store(r, out)
@@ -348,10 +359,23 @@ class SweepProgress:
             self.say(f"  {n}/{self.total} trials done, {eta}")
 
 
+def _result(fut: cf.Future, number: int, policy: str) -> dict[str, Any]:
+    """A worker's result, or a failed one when its process died (killed, out of memory)."""
+    try:
+        return fut.result()
+    except cf.BrokenExecutor as exc:
+        return {"subject": f"scripted-{policy}-{number}", "domain": None, "code": 1, "host": os.uname().nodename,
+                "error": f"its worker process ended ({exc})", "session_json": None, "records": [], "log": ""}
+
+
 def _finished(result: dict[str, Any], say) -> dict[str, Any]:
     done = sum(1 for r in result["records"] if r.get("status") == "completed")
     ok = sum(1 for r in result["records"] if r.get("metrics", {}).get("success"))
-    say(f"  {result['subject']}: {done} trials, {ok} reached the goal (domain {result['domain']} on {result['host']})")
+    if result.get("error"):
+        say(f"  {result['subject']}: stopped after {done} trials: {result['error']}")
+    else:
+        say(f"  {result['subject']}: {done} trials, {ok} reached the goal (domain {result['domain']} on "
+            f"{result['host']})")
     return result
 
 

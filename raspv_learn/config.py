@@ -119,6 +119,16 @@ class LearnConfig:
         values = {k: v for k, v in asdict(self).items() if k not in ("source", "observer", "name")}
         return hashlib.sha256(json.dumps(values, sort_keys=True, default=list).encode()).hexdigest()[:16]
 
+    def observer_key(self) -> str:
+        """Hash of everything a hand-designed mode's observer score depends on: the data, the
+        device and twin, the targets, the decoder and its schedule, the seed and the validation
+        split — not how the encoder is trained (a retrained encoder keeps the modes' rows)."""
+        t = self.train
+        values = {k: v for k, v in asdict(self).items() if k in ("data", "device", "spv", "target", "decoder",
+                                                                  "observer")}
+        values["train"] = {"seed": t.seed, "val_fraction": t.val_fraction, "threads": t.threads}
+        return hashlib.sha256(json.dumps(values, sort_keys=True, default=list).encode()).hexdigest()[:16]
+
     def as_dict(self) -> dict:
         out = asdict(self)
         out.pop("source")

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 COMPARE_MODES = ("depth", "edges", "chess_floor", "wall_obstacles", "chess_wall_obstacles")
+CEILING = "ground_truth_classes"      # a diagnostic row (--ceiling), not a mode: never the best hand-designed
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 
 
@@ -50,6 +51,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="print the comparison shipped in raspv_learn/models/ (no data, no training)")
             p.add_argument("--ship", action="store_true",
                            help="copy the finished comparison into raspv_learn/models/<device>.compare.json")
+            p.add_argument("--ceiling", action="store_true",
+                           help=f"also score '{CEILING}': each phosphene shows the ground-truth walker class of its "
+                                "ray (floor off, walls half, obstacles full) — what the phosphenes can carry, not a "
+                                "mode")
             p.add_argument("--fresh", action="store_true",
                            help="score every row again (default: rows of --out/compare.json with the same "
                                 "configuration, observer and encoder are kept: a killed comparison resumes)")
@@ -209,16 +214,26 @@ def _compare_run(args, config) -> int:
 
     from raspv_learn.metrics import stimulation_cost
     from raspv_learn.prepare import prepare
-    from raspv_learn.train import Pipeline, encoder_levels, train_observer
+    from raspv_learn.train import Pipeline, encoder_levels, ground_truth_levels, train_observer
 
     out = _out_dir(args, config)
     out.mkdir(parents=True, exist_ok=True)
-    data = prepare(config, _data_dir(args, config), tuple(args.modes), progress=not args.quiet)
+    # the rows' scores depend on the data, device, targets and observer, not on how the encoder
+    # was trained: a retrained encoder rescores its own row only
+    run_key = config.observer_key()
+    record = out / "compare.json"
+    kept = {}
+    if record.exists() and not args.fresh:
+        previous = json.loads(record.read_text())
+        kept = {r["row_key"]: r for r in previous.get("rows", []) if previous.get("run_key") == run_key}
+    scored = [m for m in args.modes if m not in kept]                 # kept rows need no levels
+    data = prepare(config, _data_dir(args, config), tuple(scored), progress=not args.quiet)
     twin = _twin(config)
     weights = Path(args.encoder) if args.encoder else out / "weights.pt"
     if not weights.exists() and not args.encoder:
         weights = MODELS_DIR / f"{Path(config.device).stem}.pt"
-    candidates = {m: {p: getattr(data, p).levels[m] for p in ("train", "val", "test")} for m in args.modes}
+    candidates = {m: ({p: getattr(data, p).levels[m] for p in ("train", "val", "test")} if m in scored else None)
+                  for m in args.modes}
     keys = {m: m for m in args.modes}
     if args.no_learned:
         pass
@@ -230,12 +245,9 @@ def _compare_run(args, config) -> int:
         keys["learned"] = "learned:" + hashlib.sha256(weights.read_bytes()).hexdigest()[:16]
     else:
         print(f"no learned encoder at {weights}: scoring the hand-designed modes only", file=sys.stderr)
-    run_key = f"{config.key()}/{json.dumps(config.as_dict()['observer'], sort_keys=True)}"
-    record = out / "compare.json"
-    kept = {}
-    if record.exists() and not args.fresh:
-        previous = json.loads(record.read_text())
-        kept = {r["row_key"]: r for r in previous.get("rows", []) if previous.get("run_key") == run_key}
+    if args.ceiling:
+        candidates[CEILING] = {p: ground_truth_levels(getattr(data, p), twin.num_levels) for p in ("train", "val", "test")}
+        keys[CEILING] = CEILING
     d = config.spv_config().device
     rows = []
     for name, levels in candidates.items():
@@ -265,7 +277,7 @@ def _compare_run(args, config) -> int:
 
 def _report(config, count: int, rows: list[dict]) -> str:
     """Print (and return) the table, and the learned encoder's gain over the best hand-designed mode."""
-    hand = [r for r in rows if r["mode"] != "learned"]
+    hand = [r for r in rows if r["mode"] not in ("learned", CEILING)]
     best = max(hand, key=lambda r: r["iou_obstacle"]) if hand else None
     table = _markdown(config, count, rows, best)
     learned = next((r for r in rows if r["mode"] == "learned"), None)
@@ -283,6 +295,7 @@ def _markdown(config, count: int, rows: list[dict], best: dict | None) -> str:
              "|---|---|---|---|---|---|---|"]
     for r in rows:
         mark = " (best hand-designed)" if best is not None and r is best else ""
+        mark = " (ceiling: the true classes, not a mode)" if r["mode"] == CEILING else mark
         lines.append(f"| {r['mode']}{mark} | {r['iou_obstacle']:.3f} | {r['iou_floor']:.3f} | {r['iou_wall']:.3f} | "
                      f"{r['miou']:.3f} | {100 * r['active_fraction']:.0f} % | {r['charge_nc']:.0f} nC |")
     return "\n".join(lines) + "\n"

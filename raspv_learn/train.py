@@ -212,6 +212,14 @@ def encoder_levels(model: Pipeline, split: Split, batch: int = 64) -> np.ndarray
     return torch.cat(out).numpy()
 
 
+def ground_truth_levels(split: Split, num_levels: int) -> np.ndarray:
+    """(n, N) uint8 levels showing each phosphene's ground-truth walker class (floor off, walls
+    half, obstacles full; off where not scored): what the phosphenes can carry to the observer
+    when the classes are right — a ceiling for class-coding representations, not a mode."""
+    code = np.nan_to_num(split.codes.astype(np.float32), nan=0.0)
+    return np.floor(code * (num_levels - 1) + 0.5).astype(np.uint8)
+
+
 def train_observer(levels: dict[str, np.ndarray], data: Prepared, twin: PhospheneTwin, stride: int, features: int,
                    spec: ObserverSpec, seed: int, threads: int, name: str = "", progress: bool = True) -> RunResult:
     """A fresh decoder trained on the phosphene images of fixed ``levels`` (``train``, ``val``,

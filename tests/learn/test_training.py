@@ -88,7 +88,7 @@ def test_training_resumes_after_a_kill_with_the_same_weights(tiny, tmp_path, mon
         torch.testing.assert_close(a, b, rtol=0, atol=0)
 
 
-def test_train_and_compare_commands(tiny, tmp_path, capsys):
+def test_train_and_compare_commands(tiny, tmp_path, capsys, monkeypatch):
     _, path, data = tiny
     out = tmp_path / "run"
     assert raspv(["learn", "train", str(path), "--data", str(data), "--out", str(out), "--quiet"]) == 0
@@ -103,6 +103,20 @@ def test_train_and_compare_commands(tiny, tmp_path, capsys):
     assert "| learned |" in table and "obstacle IoU" in table
     printed = capsys.readouterr().out
     assert "points obstacle IoU" in printed
+
+    # scored rows are kept when only the encoder's training changes; --ceiling adds the true classes' row
+    observed = []
+    real = train_module.train_observer
+    monkeypatch.setattr(train_module, "train_observer", lambda levels, *a, **k: observed.append(1) or real(levels, *a, **k))
+    longer = tmp_path / "longer.yaml"
+    longer.write_text(yaml.safe_dump({**TINY, "train": {**TINY["train"], "epochs": 3}}))
+    assert raspv(["learn", "compare", str(longer), "--data", str(data), "--out", str(out), "--quiet",
+                  "--modes", "depth", "wall_obstacles", "--no-learned", "--ceiling"]) == 0
+    assert len(observed) == 1                                         # the ceiling only
+    rows = json.loads((out / "compare.json").read_text())["rows"]
+    assert [r["mode"] for r in rows] == ["depth", "wall_obstacles", "learned", "ground_truth_classes"]
+    printed = capsys.readouterr().out
+    assert "| ground_truth_classes (ceiling: the true classes, not a mode) |" in printed
 
 
 def test_the_shipped_comparisons_print_without_data(capsys):
