@@ -104,6 +104,9 @@ def _wait(client, seconds: float) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from raspv_bringup.testing import claim_private_domain
+
+    claim_private_domain()                 # its graphs never meet another run's (it used the caller's domain)
     seconds = 8.0 if args.quick else args.seconds
     runs = [True] if args.quick else [False, True]
     results = {}
