@@ -9,6 +9,7 @@ over the window (target for foxglove: ≤ 10 %), what the client received per to
 from __future__ import annotations
 
 import argparse
+import re
 import tempfile
 import time
 from pathlib import Path
@@ -18,6 +19,8 @@ from raspv_common import topics
 LAYOUT_TOPICS = [topics.SPV_IMAGE, topics.COLOR, topics.VIZ_SCENE, topics.VIZ_STAIRS, topics.VIZ_PATH,
                  topics.VIZ_PHOSPHENES, topics.VIZ_CLOUD, topics.NAV_COSTMAP, "/raspv/latency", "/sysinfo"]
 URL = r"Foxglove: open connection → Foxglove WebSocket → (ws://\S+)"
+SPV_SUMMARY = r"spv: (\d+) display frames, (\d+) dropped"
+FOXGLOVE_SUMMARY = r"foxglove: (\d+) messages \((\d+) MB\) sent on (\d+) channels in (\d+) s, CPU ([\d.]+) s"
 
 
 class GraphFailed(RuntimeError):
@@ -47,7 +50,9 @@ def demo_spec(with_views: bool, max_rate: float = 0.0) -> dict:
 
 
 def measure(with_views: bool, seconds: float, warmup: float, workdir: Path, max_rate: float = 0.0) -> dict:
-    """One run: {"cpu": {kind: % of a core}, "display_hz", "client_hz": {topic: Hz}, "machine"}."""
+    """One run: {"cpu": {kind: % of a core}, "display_hz", "client_hz": {topic: Hz}, "machine",
+    "shown": share of the spv node's display ticks it showed (its exit line), "sent": the foxglove
+    node's exit line (messages, MB, channels, s, CPU s) or None}."""
     from sensor_msgs.msg import Image
 
     from raspv_bringup.testing import Probe, RunningGraph
@@ -81,7 +86,7 @@ def measure(with_views: bool, seconds: float, warmup: float, workdir: Path, max_
         cpu1, ticks1 = graph.cpu_by_kind(), graph.machine_ticks()
         if not graph.running():
             raise GraphFailed(graph.output[-2000:])
-        return {
+        result = {
             "cpu": {k: 100.0 * (t - cpu0[k][1]) / wall for k, (pid, t) in cpu1.items() if k in cpu0 and cpu0[k][0] == pid},
             "display_hz": (len(arrivals) - n0) / wall,
             "client_hz": {t: (c - counts0.get(t, 0)) / wall for t, c in sorted(client.counts.items())} if client else {},
@@ -92,6 +97,11 @@ def measure(with_views: bool, seconds: float, warmup: float, workdir: Path, max_
             client.close()
         probe.close()
         graph.stop()
+    shown = re.search(SPV_SUMMARY, graph.output)
+    result["shown"] = int(shown.group(1)) / max(1, int(shown.group(1)) + int(shown.group(2))) if shown else None
+    sent = re.search(FOXGLOVE_SUMMARY, graph.output)
+    result["sent"] = tuple(float(v) for v in sent.groups()) if sent else None
+    return result
 
 
 def _wait(client, seconds: float) -> None:
@@ -104,6 +114,9 @@ def _wait(client, seconds: float) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from raspv_bringup.testing import claim_private_domain
+
+    claim_private_domain()                 # its graphs never meet another run's (it used the caller's domain)
     seconds = 8.0 if args.quick else args.seconds
     runs = [True] if args.quick else [False, True]
     results = {}
@@ -119,7 +132,12 @@ def run(args: argparse.Namespace) -> int:
                 return 1
             cpu = ", ".join(f"{k} {v:.1f} %" for k, v in sorted(r["cpu"].items()))
             print(f"  CPU of one core: {cpu}; {r['machine']}")
-            print(f"  /spv/image at a ROS subscriber: {r['display_hz']:.1f} Hz")
+            print(f"  /spv/image at a ROS subscriber: {r['display_hz']:.1f} Hz"
+                  + (f"; the spv node showed {100 * r['shown']:.1f} % of its 50 Hz display ticks" if r["shown"] else ""))
+            if r["sent"]:
+                n, mb, channels, s, cpu = r["sent"]
+                print(f"  foxglove node over its life: {n:.0f} messages ({mb:.0f} MB) sent on {channels:.0f} channels in "
+                      f"{s:.0f} s, {1000 * cpu / max(n, 1):.2f} ms of CPU per message sent")
             if r["client_hz"]:
                 print("  Foxglove client received: " + ", ".join(f"{t} {hz:.1f} Hz" for t, hz in r["client_hz"].items()))
     on = results[True]
@@ -129,5 +147,7 @@ def run(args: argparse.Namespace) -> int:
     if False in results:
         off = results[False]
         print(f"display rate: {on['display_hz']:.1f} Hz with the live views, {off['display_hz']:.1f} Hz without "
-              f"({on['display_hz'] / max(off['display_hz'], 1e-9):.3f}×)")
+              f"({on['display_hz'] / max(off['display_hz'], 1e-9):.3f}×) at a ROS subscriber in this process"
+              + (f"; the spv node showed {100 * on['shown']:.1f} % vs {100 * off['shown']:.1f} % of its display ticks"
+                 if on["shown"] is not None and off["shown"] is not None else ""))
     return 0

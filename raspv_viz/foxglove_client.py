@@ -30,8 +30,10 @@ class Received:
 
 class FoxgloveClient:
     def __init__(self, url: str, open_timeout: float = 10.0) -> None:
+        # no keepalive pings: a client between two pumps does not read, so its pong waits behind the
+        # frames queued before it and websockets closed the connection (1011) on a loaded machine
         self._connection = connect(url, subprotocols=SUBPROTOCOLS, max_size=None, open_timeout=open_timeout,
-                                   compression=None)
+                                   compression=None, ping_interval=None)
         self.ws = self._connection.__enter__()
         self.server_info: dict[str, Any] = {}
         self.channels: dict[str, dict[str, Any]] = {}      # topic → advertised channel

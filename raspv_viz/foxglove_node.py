@@ -73,6 +73,8 @@ class FoxgloveNode(RaspvNode):
     def __init__(self) -> None:
         super().__init__("foxglove", PARAMS)
         self._wake = self.create_guard_condition(self._update_subscriptions)
+        self._started = time.monotonic()
+        self._forwarded: dict[str, list[int]] = {}   # channel → [messages, bytes] sent to clients
         self._taken: dict[str, Any] = {}     # ROS topic → subscription
         self._channel_types: dict[str, str] = {}     # channel topic → message type
         self._param_clients: dict[str, ParamClient] = {}
@@ -82,7 +84,9 @@ class FoxgloveNode(RaspvNode):
         # thread: in this node's wait set they made every forwarded message cost more.
         self._param_node = None
         if p["parameters"]:
-            self._param_node = rclpy.create_node(f"{self.get_name()}_parameters", context=self.context)
+            # its own name: the launcher's `-r __node:=…` would otherwise rename it to this node's
+            self._param_node = rclpy.create_node(f"{self.get_name()}_parameters", context=self.context,
+                                                 use_global_arguments=False)
             self._param_executor = SingleThreadedExecutor(context=self.context)
             self._param_executor.add_node(self._param_node)
             threading.Thread(target=self._spin_parameters, name="foxglove-parameters", daemon=True).start()
@@ -102,6 +106,11 @@ class FoxgloveNode(RaspvNode):
 
     def close(self) -> None:
         self.server.stop()
+        wall = time.monotonic() - self._started
+        messages = sum(n for n, _ in self._forwarded.values())
+        megabytes = sum(b for _, b in self._forwarded.values()) / 1e6
+        print(f"foxglove: {messages} messages ({megabytes:.0f} MB) sent on {len(self._forwarded)} channels in "
+              f"{wall:.0f} s, CPU {time.process_time():.1f} s", flush=True)
         if self._param_node is not None:
             self._param_executor.shutdown(timeout_sec=1.0)
             self._param_node.destroy_node()
@@ -174,9 +183,15 @@ class FoxgloveNode(RaspvNode):
                 return
             self._last_sent[topic] = now
         if self.server.watched(topic):
-            self.server.log(topic, raw, now)
+            self._send(topic, raw, now)
         if topic == topics.SPV_FRAME and self.server.watched(LATENCY):
-            self.server.log(LATENCY, json.dumps(latency_sample(raw)).encode(), now)
+            self._send(LATENCY, json.dumps(latency_sample(raw)).encode(), now)
+
+    def _send(self, channel: str, data: bytes, now: int) -> None:
+        self.server.log(channel, data, now)
+        counts = self._forwarded.setdefault(channel, [0, 0])
+        counts[0] += 1
+        counts[1] += len(data)
 
     # -- parameters (called on the SDK's thread; the executor answers the services) ----------
     def _client(self, node: str) -> ParamClient:

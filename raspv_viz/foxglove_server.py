@@ -26,6 +26,8 @@ from raspv_bags.message_types import ensure_type, normalise_type, typestore
 from raspv_viz.foxglove_gate import TokenGate, is_loopback
 
 SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")
+STOP_WAIT_S = 2.0    # s: the SDK's stop waits for every client's queue to drain; a client that stopped reading
+                     # (a laptop gone to sleep) made it wait for that client's TCP to fail (46 s here)
 
 
 def ros2msg_schema(msgtype: str) -> bytes | None:
@@ -101,16 +103,23 @@ class FoxgloveServer:
         return f"ws://{host}:{self.port}" + (f"/?token={self.token}" if self.token else "")
 
     def stop(self) -> None:
+        """Stop serving; waits at most STOP_WAIT_S for the SDK (the rest finishes, or is dropped
+        with the process)."""
         if self._sysinfo is not None:
             self._sysinfo.stop()
         if self._gate is not None:
             self._gate.stop()
+        stopper = threading.Thread(target=self._stop_server, name="foxglove-stop", daemon=True)
+        stopper.start()
+        stopper.join(STOP_WAIT_S)
+
+    def _stop_server(self) -> None:
         if self._server is not None:
             self._server.stop()
         with self._lock:
-            for channel in self._channels.values():
-                channel.close()
-            self._channels.clear()
+            channels, self._channels = list(self._channels.values()), {}
+        for channel in channels:
+            channel.close()
 
     # -- channels -------------------------------------------------------------------------------
     def topics(self) -> set[str]:

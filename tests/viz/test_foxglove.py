@@ -207,3 +207,29 @@ def test_latency_sample_from_a_raw_phosphene_frame():
     assert sample["camera_to_display_ms"] == pytest.approx(40.0) and sample["scene_age_ms"] == pytest.approx(50.0)
     frame.scene_stamp = Time()
     assert "scene_age_ms" not in latency_sample(serialize_message(frame))        # no scene result used
+
+
+def test_stop_is_bounded_with_a_client_that_stopped_reading():
+    """A subscribed client that no longer reads (its queue full) held foxglove-sdk's stop until the
+    client's TCP failed (46 s here, past the launcher's SIGINT grace). stop() waits STOP_WAIT_S."""
+    import time
+
+    from raspv_viz.foxglove_server import STOP_WAIT_S
+    server = FoxgloveServer(ServerConfig(port=0, sysinfo_topic=""), lambda t: None, lambda t: None)
+    server.start()
+    server.add_channel("/img", "sensor_msgs/msg/Image", ros2msg_schema("sensor_msgs/msg/Image"))
+    client = FoxgloveClient(server.url())
+    try:
+        client.wait_for_channels(["/img"], timeout=30)
+        client.subscribe(["/img"])
+        _wait(lambda: server.watched("/img"), "subscription not seen", 30)
+        for i in range(60):                           # 38 MB the client never reads (its socket and queue hold ~15)
+            server.log("/img", bytes(640_000), i)
+        started = time.monotonic()
+        server.stop()
+        assert time.monotonic() - started < STOP_WAIT_S + 10.0     # a hang bound, not a timing figure
+    finally:
+        try:
+            client.close()
+        except Exception:   # the server went away under it
+            pass
