@@ -22,12 +22,17 @@ Each frame:
    that is the representation's weakness, not the subject's). The row's floor is the lower of
    its median now and its median over the last seconds (so a wall that fills a row still
    stands out while it comes nearer). Only what stands out in two frames running counts (one
-   frame's perceptual noise is not an obstacle). What stands out is placed on the floor through the head
-   pose (its ray's floor point: an overestimate for things above the floor, as for a person
-   who judges distance by height in the view) and remembered for a few seconds in the
-   path-integrated frame, so an obstacle that left the view is still walked around — as
-   5 cm floor cells, each with its latest sighting (a memory of the last 600 points, as before,
-   forgot within a frame at 2500 phosphenes, where a box and the walls light hundreds).
+   frame's perceptual noise is not an obstacle), and only what spans ``MIN_EXTENT_DEG`` of the
+   view: one phosphene when they are that far apart, else it and a neighbour — a rule in visual
+   angle, not in phosphenes, so the false alarms of perceptual noise do not grow with their
+   number. An obstacle is placed where it meets the floor, as a person judges distance by where
+   an object stands on the ground: in each image column, the lowest phosphene of a run that
+   stands out, through its ray's floor point and the head pose (the phosphenes above it are the
+   same obstacle's face, whose rays reach the floor far behind it: placing them there filled the
+   free space behind every box with phantom obstacles, densely at high counts, sparsely at low
+   ones). It is remembered for a few seconds in the path-integrated frame, so an obstacle that
+   left the view is still walked around — as 5 cm floor cells, each with its latest sighting
+   (a memory of the last 600 points, as before, forgot within a frame at 2500 phosphenes).
 3. **Touch**: a bump (a collision the body feels: ``touch()``) makes it step back for
    ``BACK_S`` and turn away from the side where it last saw more obstacles. (The other
    policies' "no optic flow" cue does not work here: on a featureless floor the view does not
