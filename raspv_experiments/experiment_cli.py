@@ -189,14 +189,25 @@ def _run(args) -> int:
         view.close()
 
 
-def _sweep(args) -> int:
+def _load_sweep(name: str):
+    """The sweep file ``name`` (a path or a file in ``experiments/``), or None after printing
+    its mistakes (one line each)."""
     from raspv_experiments.protocol import ProtocolError, resolve_protocol_path
-    from raspv_experiments.sweep import load_sweep, run_sweep
+    from raspv_experiments.sweep import load_sweep
 
     try:
-        sweep = load_sweep(resolve_protocol_path(args.sweep))
+        return load_sweep(resolve_protocol_path(name))
     except ProtocolError as exc:
         print("\n".join(exc.errors), file=sys.stderr)
+        return None
+
+
+def _sweep(args) -> int:
+    from raspv_experiments.protocol import ProtocolError
+    from raspv_experiments.sweep import run_sweep
+
+    sweep = _load_sweep(args.sweep)
+    if sweep is None:
         return 2
     out = Path(args.out or f"sweeps/{sweep.name}")
     if args.workers is not None and args.workers < 1:
@@ -228,14 +239,10 @@ def _sweep(args) -> int:
 
 
 def _quick_sweep(args) -> int:
-    from raspv_experiments.protocol import ProtocolError, resolve_protocol_path
     from raspv_experiments.quick_sweep import check_quick, run_quick_sweep, summarise, summary_table
-    from raspv_experiments.sweep import load_sweep
 
-    try:
-        sweep = load_sweep(resolve_protocol_path(args.sweep))
-    except ProtocolError as exc:
-        print("\n".join(exc.errors), file=sys.stderr)
+    sweep = _load_sweep(args.sweep)
+    if sweep is None:
         return 2
     if args.subjects:
         try:

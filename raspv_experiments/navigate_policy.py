@@ -22,12 +22,17 @@ Each frame:
    that is the representation's weakness, not the subject's). The row's floor is the lower of
    its median now and its median over the last seconds (so a wall that fills a row still
    stands out while it comes nearer). Only what stands out in two frames running counts (one
-   frame's perceptual noise is not an obstacle). What stands out is placed on the floor through the head
-   pose (its ray's floor point: an overestimate for things above the floor, as for a person
-   who judges distance by height in the view) and remembered for a few seconds in the
-   path-integrated frame, so an obstacle that left the view is still walked around — as
-   5 cm floor cells, each with its latest sighting (a memory of the last 600 points, as before,
-   forgot within a frame at 2500 phosphenes, where a box and the walls light hundreds).
+   frame's perceptual noise is not an obstacle), and only what spans ``MIN_EXTENT_DEG`` of the
+   view: one phosphene when they are that far apart, else it and a neighbour — a rule in visual
+   angle, not in phosphenes, so the false alarms of perceptual noise do not grow with their
+   number. An obstacle is placed where it meets the floor, as a person judges distance by where
+   an object stands on the ground: in each image column, the lowest phosphene of a run that
+   stands out, through its ray's floor point and the head pose (the phosphenes above it are the
+   same obstacle's face, whose rays reach the floor far behind it: placing them there filled the
+   free space behind every box with phantom obstacles, densely at high counts, sparsely at low
+   ones). It is remembered for a few seconds in the path-integrated frame, so an obstacle that
+   left the view is still walked around — as 5 cm floor cells, each with its latest sighting
+   (a memory of the last 600 points, as before, forgot within a frame at 2500 phosphenes).
 3. **Touch**: a bump (a collision the body feels: ``touch()``) makes it step back for
    ``BACK_S`` and turn away from the side where it last saw more obstacles. (The other
    policies' "no optic flow" cue does not work here: on a featureless floor the view does not
@@ -57,6 +62,9 @@ MEMORY_CELL = 0.05                 # m: remembered obstacles are floor cells of 
 FLOOR_TAU_S = 1.5                  # s: time constant of a row's floor brightness over time
 TRAIL_MEMORY_S = 6.0               # s: turns back toward a trail seen this recently
 BACK_S = 0.8                       # s stepping back after a bump
+MIN_EXTENT_DEG = 3.0               # what stands out must span this much of the view (10 cm at 2 m): one phosphene
+                                   # when they are this far apart, else it and a neighbour (so the false alarms of
+                                   # perceptual noise do not grow with the number of phosphenes)
 TRAIL_LEVEL = 0.78                 # the path overlay lights the path at full level (1) and halves the rest (≤ 4/7 with
                                    # 8 levels): a trail is brighter than midway, with room for perceptual noise
 
@@ -65,21 +73,61 @@ def _wrap(a: float | np.ndarray):
     return (np.asarray(a) + math.pi) % (2 * math.pi) - math.pi
 
 
-def row_bands(layout: PhospheneLayout) -> np.ndarray:
-    """(N,) band index of each phosphene: phosphenes in one image row (±0.35 of the spacing)."""
+def _spacing(layout: PhospheneLayout) -> float:
+    """Median distance from a phosphene to its nearest neighbour [px]."""
     pts = np.column_stack([layout.x, layout.y])
     n = len(pts)
     if n < 2:
-        return np.zeros(n, int)
+        return 1.0
     sample = pts if n <= 1500 else pts[np.linspace(0, n - 1, 1500).astype(int)]
     d = np.hypot(*(sample[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))
     d[d == 0] = np.inf
-    spacing = float(np.median(d.min(axis=1)))
-    return np.round((layout.y - layout.y.min()) / max(0.7 * spacing, 1e-6)).astype(int)
+    return max(float(np.median(d.min(axis=1))), 1e-6)
+
+
+def row_bands(layout: PhospheneLayout) -> np.ndarray:
+    """(N,) band index of each phosphene: phosphenes in one image row (±0.35 of the spacing)."""
+    if len(layout.x) < 2:
+        return np.zeros(len(layout.x), int)
+    return np.round((layout.y - layout.y.min()) / (0.7 * _spacing(layout))).astype(int)
+
+
+def neighbours(layout: PhospheneLayout, radius_spacings: float = 1.5):
+    """(N, N) sparse 0/1 matrix: phosphenes within ``radius_spacings`` of the spacing of each other
+    (a grid's 8 neighbours), not itself."""
+    from scipy.sparse import coo_matrix
+    from scipy.spatial import cKDTree
+
+    n = len(layout.x)
+    pairs = (cKDTree(np.column_stack([layout.x, layout.y])).query_pairs(radius_spacings * _spacing(layout),
+                                                                       output_type="ndarray")
+             if n > 1 else np.empty((0, 2), int))
+    i = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    j = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    return coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)).tocsr()
+
+
+def phosphene_below(layout: PhospheneLayout) -> np.ndarray:
+    """(N,) index of the nearest phosphene below each one in its image column (within ±0.35 of
+    the spacing across, at most 2.5 spacings down), −1 where there is none (the lowest of the column)."""
+    n = len(layout.x)
+    below = np.full(n, -1)
+    if n < 2:
+        return below
+    spacing = _spacing(layout)
+    column = np.round((layout.x - layout.x.min()) / (0.7 * spacing)).astype(int)
+    for c in np.unique(column):
+        idx = np.flatnonzero(column == c)
+        idx = idx[np.argsort(layout.y[idx])]                 # top to bottom (y down)
+        gap = np.diff(layout.y[idx])
+        ok = gap <= 2.5 * spacing
+        below[idx[:-1][ok]] = idx[1:][ok]
+    return below
 
 
 class Navigate(Policy):
     name = "navigate"
+    BASES_ONLY = True            # remember only each obstacle's base (see the module docstring)
 
     def __init__(self, layout: PhospheneLayout, config: PolicyConfig | None = None,
                  goal: tuple[float, float] | None = None, **_) -> None:
@@ -90,6 +138,10 @@ class Navigate(Policy):
         self.floor_ref = np.full(self.band_ids.max() + 1, np.nan)
         self.bearing = np.arctan2(self.ground[:, 1], self.ground[:, 0])    # NaN above the horizon
         self._standing_out = np.zeros(len(layout.x), bool)     # stood out in the previous frame
+        self._below = phosphene_below(layout)
+        spacing_deg = math.degrees(_spacing(layout) / layout.focal_px) if len(layout.x) > 1 else 180.0
+        self._support = 0 if spacing_deg >= MIN_EXTENT_DEG else 1     # neighbours that must stand out too
+        self._neighbours = neighbours(layout) if self._support else None
         self.pose = np.zeros(3)                        # path-integrated x, y [m], heading [rad] (start frame)
         self.memory: list[tuple[float, float, float]] = []      # obstacles: (x, y, t) in the start frame
         self._cells: dict[tuple[int, int], float] = {}          # the same, by MEMORY_CELL cell: last seen [s]
@@ -146,6 +198,13 @@ class Navigate(Policy):
         out = (b > 0) & (b >= floor + self.config.contrast_threshold) & np.isfinite(self.ground_distance)
         out[exclude] = False
         seen, self._standing_out = out & self._standing_out, out
+        if self._support:                    # smaller than MIN_EXTENT_DEG: one phosphene's noise, not an obstacle
+            seen &= (self._neighbours @ seen.astype(float)) >= self._support
+        if self.BASES_ONLY:                  # an obstacle is where it meets the floor: the lowest of each run
+            has = self._below >= 0
+            base = seen.copy()
+            base[has] &= ~seen[self._below[has]]
+            seen = base
         return np.flatnonzero(seen)
 
     # -- the decision ---------------------------------------------------------------------------

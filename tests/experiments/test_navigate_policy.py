@@ -120,3 +120,44 @@ def test_the_representation_decides_whether_it_gets_past_the_crate(mode, reaches
                     config=PolicyConfig(seed=1, **subject_ability(1)))
     assert r.success == reaches, (r.time_s, r.collisions)
     assert (r.collisions == 0) == reaches
+
+
+def test_one_phosphene_is_an_obstacle_only_when_phosphenes_are_far_apart():
+    """What stands out must span MIN_EXTENT_DEG of the view: a single phosphene does when the grid
+    is coarse (4x4 in 40 deg: 10 deg apart); in a fine grid (50x50: 0.8 deg) it needs a neighbour,
+    so perceptual noise's false alarms do not grow with the number of phosphenes."""
+    for n, single_counts in ((4, True), (50, False)):
+        layout = grid_layout(n)
+        p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+        frame = floor_frame(layout)
+        lone = int(np.argmin(np.hypot(layout.x - 200, layout.y - 330)))
+        frame[lone] = 1.0
+        for k in range(2):
+            p.act(frame, 0.1 * k)
+        assert bool(p.memory) == single_counts, n
+        blob = np.hypot(layout.x - 200, layout.y - 330) < 25          # 3.5 deg across: an obstacle in both
+        frame[blob] = 1.0
+        q = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+        for k in range(2):
+            q.act(frame, 0.1 * k)
+        assert q.memory, n
+
+
+def test_an_obstacle_is_remembered_where_it_meets_the_floor():
+    """A box face lights a run of phosphenes up a column: their rays' floor points reach far behind
+    it, but only the lowest (its base) is remembered — the same cells at 10x10 and 50x50 phosphenes."""
+    nearest = {}
+    for n in (10, 50):
+        layout = grid_layout(n)
+        p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
+        frame = floor_frame(layout)
+        face = (np.abs(layout.x - 200) < 60) & (layout.y > 160) & (layout.y < 320)
+        frame[face] = 1.0
+        for k in range(2):
+            p.act(frame, 0.1 * k)
+        cells = np.array([(x, y) for x, y, _ in p.memory])
+        base = p.ground[face & (layout.y == layout.y[face].max()), 0]
+        assert np.ptp(cells[:, 0]) <= 0.1, n                                           # one row: the base,
+        assert abs(cells[:, 0].mean() - base.mean()) < 0.15, n                         # (5 cm cells, a step walked)
+        nearest[n] = cells[:, 0].min()
+    assert abs(nearest[10] - nearest[50]) < 0.25
