@@ -19,7 +19,6 @@ from raspv_common import topics
 LAYOUT_TOPICS = [topics.SPV_IMAGE, topics.COLOR, topics.VIZ_SCENE, topics.VIZ_STAIRS, topics.VIZ_PATH,
                  topics.VIZ_PHOSPHENES, topics.VIZ_CLOUD, topics.NAV_COSTMAP, "/raspv/latency", "/sysinfo"]
 URL = r"Foxglove: open connection → Foxglove WebSocket → (ws://\S+)"
-SPV_SUMMARY = r"spv: (\d+) display frames, (\d+) dropped"
 FOXGLOVE_SUMMARY = r"foxglove: (\d+) messages \((\d+) MB\) sent on (\d+) channels in (\d+) s, CPU ([\d.]+) s"
 
 
@@ -97,8 +96,8 @@ def measure(with_views: bool, seconds: float, warmup: float, workdir: Path, max_
             client.close()
         probe.close()
         graph.stop()
-    shown = re.search(SPV_SUMMARY, graph.output)
-    result["shown"] = int(shown.group(1)) / max(1, int(shown.group(1)) + int(shown.group(2))) if shown else None
+    shown = graph.spv_display()
+    result["shown"] = shown[0] / max(1, sum(shown)) if shown else None
     sent = re.search(FOXGLOVE_SUMMARY, graph.output)
     result["sent"] = tuple(float(v) for v in sent.groups()) if sent else None
     return result

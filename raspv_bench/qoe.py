@@ -180,6 +180,10 @@ def run(args: argparse.Namespace) -> int:
     finally:
         probe.close()
         g.stop()
+    display = g.spv_display()
+    if display:
+        print(f"  the spv node's own count over the whole run: {display[0]} display frames, {display[1]} dropped "
+              f"({100 * display[1] / max(1, sum(display)):.2f} %)")
     print("targets: 0 stale episodes, ≥ 99.5 % of frames in the configured mode, client ≥ 45 fps, frame age "
           "p95 ≤ 60 ms, head-turn onset p95 ≤ 25 ms, a killed node shown within 300 ms")
     for f in failures:
@@ -242,8 +246,10 @@ def _report(r: dict, failures: list[str]) -> None:
     share = 100 * r["shown"].get("configured", 0) / max(total, 1)
     other = ", ".join(f"{k} {100 * v / max(total, 1):.2f} %" for k, v in sorted(r["shown"].items()) if k != "configured")
     n, missed = r["ticks"]
-    print(f"  display: {n} frames in {minutes:.1f} min, {missed} ticks missed ({100 * missed / max(1, n + missed):.2f} %); "
-          f"{share:.2f} % in the configured mode{' (' + other + ')' if other else ''}")
+    print(f"  display as a probe in this process received it: {n} frames in {minutes:.1f} min, {missed} ticks not "
+          f"received ({100 * missed / max(1, n + missed):.2f} %; a best-effort subscriber misses frames when this "
+          f"process is starved: the node's own count below); {share:.2f} % of them in the configured mode"
+          f"{' (' + other + ')' if other else ''}")
     rates = ", ".join(f"{k} {v:.1f} Hz" for k, v in r["inputs_hz"].items() if v)
     print(f"  inputs as the display used them: {rates or 'none'} (the simulator and perception yield to the "
           f"display and the page when the cores are short: docs/spv.md, Priorities)")

@@ -158,13 +158,13 @@ def graph_bench(args) -> list[str]:
         time.sleep(args.seconds)
     finally:
         g.stop()
-    m = re.search(r"spv: (\d+) display frames, (\d+) dropped", g.output)
+    display = g.spv_display()
     seg = re.search(r"segmentation: .*", g.output)
     if seg:
         print(f"  {seg.group(0)}")
-    if not m:
+    if not display:
         return ["the people graph's spv node reported no display statistics"]
-    shown, dropped = int(m.group(1)), int(m.group(2))
+    shown, dropped = display
     pct = 100.0 * dropped / max(1, shown + dropped)
     print(f"  spv display: {shown} frames shown, {dropped} dropped ({pct:.1f} %) at 50 Hz; load average "
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")

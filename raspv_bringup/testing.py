@@ -98,6 +98,13 @@ class RunningGraph:
             self._log.flush()
         return self.log_path.read_text(errors="replace")
 
+    def spv_display(self) -> tuple[int, int] | None:
+        """(display frames shown, dropped) from the spv node's exit line — its own count, unlike a
+        subscriber's, which misses frames when its process is starved; the busiest spv process of
+        the run (a warm spare reports too). None before the node stopped."""
+        found = [(int(a), int(b)) for a, b in re.findall(r"spv: (\d+) display frames, (\d+) dropped", self.output)]
+        return max(found) if found else None
+
     def cpu_by_kind(self) -> dict[str, tuple[int, float]]:
         """{node kind: (pid, CPU seconds so far)} of the graph's node processes (of a kind with a warm
         spare waiting, the older process: the one running the node)."""

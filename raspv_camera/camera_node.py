@@ -159,7 +159,7 @@ class CameraNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(CameraNode, argv)
+    run_node(CameraNode, argv, priority="background")
 
 
 if __name__ == "__main__":

@@ -114,7 +114,9 @@ def array_to_image(arr: np.ndarray, encoding: str, header: Header | None = None)
     msg.encoding = encoding
     msg.is_bigendian = 0
     msg.step = int(arr.shape[1] * channels * dtype.itemsize)
-    msg.data = array.array("B", arr.tobytes())
+    data = array.array("B")
+    data.frombytes(memoryview(arr).cast("B"))    # one copy (arr.tobytes() then array() made two)
+    msg.data = data
     return msg
 
 

@@ -320,7 +320,7 @@ class PlannerNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(PlannerNode, argv, priority="perception")
+    run_node(PlannerNode, argv, priority="background")
 
 
 if __name__ == "__main__":

@@ -133,7 +133,7 @@ class SceneNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(SceneNode, argv, priority="perception")
+    run_node(SceneNode, argv, priority="background")
 
 
 if __name__ == "__main__":
