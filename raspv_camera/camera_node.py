@@ -159,7 +159,7 @@ class CameraNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(CameraNode, argv, priority="background")
+    run_node(CameraNode, argv, priority="source")
 
 
 if __name__ == "__main__":

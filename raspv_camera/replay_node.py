@@ -200,7 +200,7 @@ class ReplayNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(ReplayNode, argv, priority="background")
+    run_node(ReplayNode, argv, priority="source")
 
 
 if __name__ == "__main__":

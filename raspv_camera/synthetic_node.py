@@ -48,7 +48,7 @@ class SyntheticSourceNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(SyntheticSourceNode, argv, priority="background")
+    run_node(SyntheticSourceNode, argv, priority="source")
 
 
 if __name__ == "__main__":

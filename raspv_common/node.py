@@ -180,17 +180,17 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error,
     or the node's ``exit_code`` when it shut itself down with one. ``priority``: a node on the
     path from the wearer's head to the phosphenes ("headset": spv, bridge) runs real-time where
-    allowed, set before rclpy starts so that its middleware threads inherit it; cameras, the
-    simulator and perception ("background") yield to it when the machine is short
+    allowed, set before rclpy starts so that its middleware threads inherit it; cameras and the
+    simulator ("source") and perception ("perception") yield to it when the machine is short
     (``raspv_common.thread_priority``)."""
     args = list(sys.argv if argv is None else argv)
     if priority == "headset":
         raise_thread_priority(realtime=True)
-    elif priority == "background":
+    elif priority in BACKGROUND_NICE:
         if os.environ.get("RASPV_BACKGROUND_PRIORITY", "on") != "off":     # "off": comparison runs (bench qoe)
-            lower_process_priority(BACKGROUND_NICE)
+            lower_process_priority(BACKGROUND_NICE[priority])
     elif priority != "normal":
-        raise ValueError(f"priority must be normal, headset or background, got {priority!r}")
+        raise ValueError(f"priority must be normal, headset, {' or '.join(BACKGROUND_NICE)}, got {priority!r}")
     rclpy.init(args=args)
     startup_mark("rclpy initialised")
     node = None

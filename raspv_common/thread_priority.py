@@ -11,7 +11,7 @@ ask for a higher priority, as VR compositors do:
 - otherwise, or when that is not allowed: a lower nice value (``HEADSET_NICE``).
 
 The processes whose late result is carried (cameras, the simulator, perception, views) lower
-themselves instead (:func:`lower_process_priority`, ``BACKGROUND_NICE``), which needs no permission.
+themselves instead (:func:`lower_process_priority`, ``SOURCE_NICE``, ``PERCEPTION_NICE``), which needs no permission.
 
 Both need root or CAP_SYS_NICE (or RLIMIT_RTPRIO / RLIMIT_NICE); without them nothing changes and
 the thread runs as before. Threads created afterwards inherit the class and nice value, so
@@ -28,9 +28,9 @@ HEADSET_NICE = -10           # display thread and headset server thread (without
 # Processes whose late result is carried, not shown as a fault, yield the cores to the wearer's
 # path (display, bridge, the browser page) when the machine is short: lower rates chosen on
 # purpose instead of display frames dropped at random. Raising a nice value needs no permission.
-# Cameras, the simulator and perception share one level: perception needs the camera's frames,
-# and a camera node that starves perception (a recording decoded at 30 Hz) makes scene results late.
-BACKGROUND_NICE = 5          # sim, camera, replay, synthetic, scene, stairs, segmentation, odometry, planner, views
+SOURCE_NICE = 5              # cameras (real, recorded, simulated): behind the display and the page
+PERCEPTION_NICE = 10         # scene, stairs, segmentation, odometry, planner, views: behind their camera
+BACKGROUND_NICE = {"source": SOURCE_NICE, "perception": PERCEPTION_NICE}
 HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv, bridge)
 DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes

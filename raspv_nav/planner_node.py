@@ -320,7 +320,7 @@ class PlannerNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(PlannerNode, argv, priority="background")
+    run_node(PlannerNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

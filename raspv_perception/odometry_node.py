@@ -118,7 +118,7 @@ class OdometryNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(OdometryNode, argv, priority="background")
+    run_node(OdometryNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

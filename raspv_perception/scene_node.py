@@ -133,7 +133,7 @@ class SceneNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(SceneNode, argv, priority="background")
+    run_node(SceneNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

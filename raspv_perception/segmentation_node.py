@@ -207,7 +207,7 @@ class SegmentationNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(SegmentationNode, argv, priority="background")
+    run_node(SegmentationNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

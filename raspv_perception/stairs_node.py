@@ -80,7 +80,7 @@ class StairsNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(StairsNode, argv, priority="background")
+    run_node(StairsNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

@@ -337,7 +337,7 @@ class SimNode(SimGazeLog, RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(SimNode, argv, priority="background")
+    run_node(SimNode, argv, priority="source")
 
 
 if __name__ == "__main__":

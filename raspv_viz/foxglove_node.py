@@ -254,7 +254,7 @@ class FoxgloveNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(FoxgloveNode, argv, priority="background")
+    run_node(FoxgloveNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

@@ -183,7 +183,7 @@ class VizNode(RaspvNode):
 
 
 def main(argv=None) -> None:
-    run_node(VizNode, argv, priority="background")
+    run_node(VizNode, argv, priority="perception")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Cameras, the simulator and perception yield the cores to the wearer's path
+"""Cameras and the simulator, then perception, yield the cores to the wearer's path
 (raspv_common.thread_priority): a process the launcher starts in a session of its own lowers its
 session's share, one started from a user's shell lowers only itself; never raises itself."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from raspv_common.thread_priority import BACKGROUND_NICE
+from raspv_common.thread_priority import BACKGROUND_NICE, PERCEPTION_NICE, SOURCE_NICE
 
 AUTOGROUP = os.path.exists("/proc/self/autogroup")
 CHILD = ("import os; from raspv_common.thread_priority import lower_process_priority as l; "
@@ -27,25 +27,26 @@ def _expected(nice: int) -> int:
     return max(nice, os.getpriority(os.PRIO_PROCESS, 0))        # (a test run that is niced itself)
 
 
-def test_background_is_behind_the_wearer_but_not_idle():
-    assert 0 < BACKGROUND_NICE < 19
+def test_perception_is_behind_its_camera_and_both_behind_the_wearer():
+    assert 0 < SOURCE_NICE < PERCEPTION_NICE < 19
+    assert BACKGROUND_NICE == {"source": SOURCE_NICE, "perception": PERCEPTION_NICE}
 
 
 def test_a_launched_node_lowers_its_session_and_itself():
-    did, nice, group = _run(BACKGROUND_NICE, new_session=True)[:3]
-    assert int(nice) == _expected(BACKGROUND_NICE)
+    did, nice, group = _run(PERCEPTION_NICE, new_session=True)[:3]
+    assert int(nice) == _expected(PERCEPTION_NICE)
     if AUTOGROUP:
-        assert group == str(BACKGROUND_NICE) and "session nice" in did
+        assert group == str(PERCEPTION_NICE) and "session nice" in did
 
 
 @pytest.mark.skipif(not AUTOGROUP, reason="the kernel has no autogroup")
 def test_a_node_run_from_a_shell_leaves_the_shells_session_alone():
     before = open("/proc/self/autogroup").read().split()[-1]
-    did, nice, group = _run(BACKGROUND_NICE, new_session=False)[:3]
-    assert int(nice) == _expected(BACKGROUND_NICE) and "session" not in did
+    did, nice, group = _run(SOURCE_NICE, new_session=False)[:3]
+    assert int(nice) == _expected(SOURCE_NICE) and "session" not in did
     assert group == before == open("/proc/self/autogroup").read().split()[-1]
 
 
 def test_a_node_never_raises_itself_by_lowering():
-    out = _run(BACKGROUND_NICE, new_session=False, before="import os; os.setpriority(os.PRIO_PROCESS, 0, 15); ")
+    out = _run(SOURCE_NICE, new_session=False, before="import os; os.setpriority(os.PRIO_PROCESS, 0, 15); ")
     assert int(out[1]) == _expected(15)
