@@ -30,9 +30,12 @@ def test_the_quick_qoe_bench_measures_the_page_the_graph_and_a_kill():
     assert m, out
     fps, age95 = float(m.group(1)), int(m.group(4))
     assert 0 < fps <= 80 and 0 <= age95 < 5000, out
-    m = re.search(r"display: (\d+) frames in ([\d.]+) min, (\d+) ticks missed .*?; ([\d.]+) % in the configured mode",
-                  out)
+    m = re.search(r"display as a probe in this process received it: (\d+) frames in ([\d.]+) min, (\d+) ticks not "
+                  r"received .*?; ([\d.]+) % of them in the configured mode", out, re.S)
     assert m and int(m.group(1)) > 0 and 0 <= float(m.group(4)) <= 100, out
+    m = re.search(r"the spv node's own count over the whole run: (\d+) display frames, (\d+) dropped", out)
+    assert m and int(m.group(1)) > 0, out                              # the node's own count, read after it stopped
+    assert re.search(r"inputs as the display used them: camera [\d.]+ Hz, scene [\d.]+ Hz", out), out
     assert re.search(r"stale episodes: \d+ \([\d.]+ per minute\), of them late from a live node \d+", out), out
     cpu = re.search(r"CPU \(% of one core\): (.*?), chromium (\d+) \((\d+) processes\)", out)
     assert cpu, out
@@ -42,4 +45,4 @@ def test_the_quick_qoe_bench_measures_the_page_the_graph_and_a_kill():
                   r"([\d.]+) kB per frame", out)
     assert m and 0 < float(m.group(1)) < float(m.group(2)), out        # levels are smaller than PNG images
     assert re.search(r"head-turn onset with the browser open .*?p50 [\d.]+ ms, p95 [\d.]+ ms", out), out
-    assert re.search(r"scene killed with SIGKILL: shown \d+ ms later", out), out
+    assert re.search(r"scene killed with SIGKILL: shown by the display tick \d+ ms later", out), out
