@@ -11,7 +11,7 @@ import pytest
 
 from raspv_common.thread_priority import BACKGROUND_NICE, PERCEPTION_NICE, SOURCE_NICE
 
-AUTOGROUP = os.path.exists("/proc/self/autogroup")
+AUTOGROUP = os.path.exists("/proc/self/autogroup") and os.access("/proc/self/autogroup", os.W_OK)
 CHILD = ("import os; from raspv_common.thread_priority import lower_process_priority as l; "
          "print(l({n})); print(os.getpriority(os.PRIO_PROCESS, 0)); "
          "print(open('/proc/self/autogroup').read().split()[-1] if os.path.exists('/proc/self/autogroup') else '-')")
