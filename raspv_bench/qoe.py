@@ -75,7 +75,7 @@ class FrameLog:
                         stamps.add(t.sec + 1e-9 * t.nanosec)
 
 
-def _chromium_cpu() -> tuple[float, int, float]:
+def _browser_and_own_cpu() -> tuple[float, int, float]:
     """(CPU seconds, processes) of every chromium process this process started, and the CPU
     seconds of this process with its browser driver (what the measuring itself costs)."""
     import psutil
@@ -201,7 +201,7 @@ def _measure(g, page, frames: FrameLog, status: list[dict], minutes: float, rate
             "bytes: s.bytesReceived, levels: s.drawsLevels, acc: s.accumulation, format: s.format}; }"
     episodes0 = status[-1]["stale_episodes"] if status else 0
     late0 = status[-1].get("late_episodes", 0) if status else 0
-    cpu0, chrome0, ticks0, t0 = g.cpu_by_kind(), _chromium_cpu(), RunningGraph.machine_ticks(), time.monotonic()
+    cpu0, chrome0, ticks0, t0 = g.cpu_by_kind(), _browser_and_own_cpu(), RunningGraph.machine_ticks(), time.monotonic()
     first = page.evaluate(state)
     with frames.lock:
         frames.counting, frames.shown, frames.ticks = True, {}, []
@@ -222,7 +222,7 @@ def _measure(g, page, frames: FrameLog, status: list[dict], minutes: float, rate
         inputs_hz = {name: len(stamps) / (max(stamps) - min(stamps)) if len(stamps) > 1 else 0.0
                      for name, stamps in (("camera", frames.sources), ("scene", frames.scenes))}
     wall = time.monotonic() - t0
-    cpu1, chrome1, ticks1 = g.cpu_by_kind(), _chromium_cpu(), RunningGraph.machine_ticks()
+    cpu1, chrome1, ticks1 = g.cpu_by_kind(), _browser_and_own_cpu(), RunningGraph.machine_ticks()
     last = page.evaluate(state)
     episodes = (status[-1]["stale_episodes"] if status else 0) - episodes0
     late = (status[-1].get("late_episodes", 0) if status else 0) - late0
