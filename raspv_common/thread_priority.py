@@ -21,6 +21,7 @@ Measured (`raspv bench e2e`, demo graph, quiet 2-core VM) in docs/spv.md, "Prior
 from __future__ import annotations
 
 import os
+import re
 import threading
 from contextlib import contextmanager
 
@@ -34,6 +35,7 @@ BACKGROUND_NICE = {"source": SOURCE_NICE, "perception": PERCEPTION_NICE}
 HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv, bridge)
 DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
+_AUTOGROUP = "/proc/self/autogroup"
 
 
 def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False,
@@ -70,13 +72,25 @@ def lower_process_priority(nice: int) -> str:
     except (AttributeError, OSError):
         pass
     try:
-        if os.getsid(0) == os.getpid():
-            with open("/proc/self/autogroup", "w") as f:
+        if os.getsid(0) == os.getpid() and session_nice() is not None:
+            with open(_AUTOGROUP, "w") as f:
                 f.write(str(nice))
-            done.append(f"session nice {nice}")
+            if session_nice() == nice:                  # (a sandbox may accept the write and ignore it)
+                done.append(f"session nice {nice}")
     except (AttributeError, OSError):
         pass
     return ", ".join(done) or "unchanged"
+
+
+def session_nice() -> int | None:
+    """This process's session (autogroup) nice value, or None where the kernel has no readable
+    autogroup (``/proc/self/autogroup`` absent, or empty as in some sandboxes)."""
+    try:
+        with open(_AUTOGROUP) as f:
+            m = re.search(r"nice\s+(-?\d+)", f.read())
+    except OSError:
+        return None
+    return int(m.group(1)) if m else None
 
 
 def lower_thread_priority(nice: int) -> None:

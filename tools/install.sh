@@ -61,16 +61,17 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
       -r "$ROOT/requirements/dev.txt" \
       -c "$ROOT/requirements/constraints.txt" ||
     die "pip install failed (its error is above); nothing was marked installed: fix it and run make install again"
+  # open3d and pyrealsense2 need libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
+  # at the copy shipped by the libusb-package wheel, so no system package is needed
+  # (before the imports below: a machine without the system's libusb fails them otherwise).
+  LIBUSB=$("$VPY" -c 'import libusb_package; print(libusb_package.get_library_path())')
+  ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
   "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' ||
     die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt"
   # the peers and tools the tests need (requirements/dev.txt): on an environment this script set
   # up, their tests run instead of skipping (raspv_bringup.testing.dev_requirement)
   "$VPY" -c 'import pytest, pulse2percept, dynaphos, torch, onnx, ai_edge_litert, ray, playwright.sync_api, pyrealsense2, depthai' ||
     die "a test dependency (requirements/dev.txt) does not import (error above); rerun: $VPY -m pip install -r requirements/dev.txt"
-  # open3d needs libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
-  # at the copy shipped by the libusb-package wheel, so no system package is needed.
-  LIBUSB=$("$VPY" -c 'import libusb_package; print(libusb_package.get_library_path())')
-  ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
   quiet_pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e "$ROOT" ||
     die "installing the project (pip install -e .) failed (its error is above)"
   rm -f "$MSG_STAMP"   # new ROS wheels: rebuild the messages against them
