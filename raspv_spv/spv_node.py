@@ -149,7 +149,10 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         if not self.params["headless"]:
             self._display_thread.start()
         self.create_timer(REPORT_PERIOD_S, self.report)
-        threading.Thread(target=self._check_rate_after_start, name="spv-rate-check", daemon=True).start()
+        # (joined in close: a daemon thread still inside rclpy's C++ at interpreter exit aborts the process)
+        self._rate_check_thread = threading.Thread(target=self._check_rate_after_start, name="spv-rate-check",
+                                                   daemon=True)
+        self._rate_check_thread.start()
         self.publish_map()
         self.get_logger().info(self._describe(self.sim))
 
@@ -499,8 +502,9 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         self._builder.close()
         self._stop_display.set()
         self.clock.stop()
-        if self._display_thread.is_alive():
-            self._display_thread.join(timeout=2.0)
+        for thread in (self._display_thread, self._rate_check_thread):
+            if thread.is_alive():
+                thread.join(timeout=2.0)
         # rclpy's context may already be shut down here: report with print, not the ROS logger
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "
