@@ -111,6 +111,7 @@ def _dropped(ticks: list[float], rate: float) -> tuple[int, int]:
 def run(args: argparse.Namespace) -> int:
     from raspv_bringup.graph import GraphError, load_graph, resolve_graph_path
     from raspv_bringup.testing import GraphStopped, Probe, RunningGraph, claim_private_domain
+    from raspv_spv.camera_source import head_turns_camera
 
     if not os.path.exists(CHROMIUM):
         print(f"raspv bench qoe: needs Debian's chromium at {CHROMIUM} (apt-get install -y chromium)")
@@ -123,19 +124,20 @@ def run(args: argparse.Namespace) -> int:
         return 2
     minutes = 20 / 60 if args.quick else args.minutes
     steps = min(args.steps, 3) if args.quick else args.steps
+    overrides = ["bridge.port:=0", "bridge.tcp_port:=-1", *args.set]
+    if args.replay:
+        overrides += [f"camera.file:={Path(args.replay).resolve()}"]
     try:
         graph_path = resolve_graph_path("camera" if args.replay else args.graph)
-        graph = load_graph(graph_path, [])
+        graph = load_graph(graph_path, overrides)
     except GraphError as exc:
         print(f"raspv bench qoe: {exc}")
         return 2
-    overrides = ["bridge.port:=0", "bridge.tcp_port:=-1", *args.set]
     if any(n.kind == "sim" for n in graph.nodes):
         overrides.append("sim.log_dir:=")
-    if args.replay:
-        overrides += [f"camera.file:={Path(args.replay).resolve()}"]
     spv = next((n for n in graph.nodes if n.kind == "spv"), None)
     rate = float((spv.params if spv else {}).get("rate", 50.0))
+    camera_source = str((spv.params if spv else {}).get("camera_source", "unknown"))
     domain = claim_private_domain()
     what = f"the camera graph replaying {args.replay}" if args.replay else graph_path.name
     print(f"raspv bench qoe — {what} with chromium (headless, software WebGL) on this machine "
@@ -168,7 +170,10 @@ def run(args: argparse.Namespace) -> int:
                 result = _measure(g, page, frames, status, minutes, rate)
                 result["png"] = _png_bytes(probe)
                 _report(result, failures)
-                if steps:
+                if steps and not head_turns_camera(camera_source):
+                    print(f"  head-turn onset: not measured — the viewer's head does not turn this graph's camera "
+                          f"(camera_source {camera_source}: docs/spv.md, Latency: display-time reprojection)")
+                elif steps:
                     _onsets(g, page, workdir, steps, failures)
                 if args.kill:
                     _kill(g, frames, args.kill, failures)

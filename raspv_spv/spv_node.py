@@ -119,6 +119,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         self.producers = ProducerWatch(self)            # whether the nodes behind the inputs live
         self._plan_lock = threading.Lock()
         self._shown: tuple | None = None        # (sim, stale set, plan, simulator shown, no-data pattern)
+        self._status_producers: dict | None = None      # the producer states /spv/status last told
         self._plan_logged = -1e9                # monotonic time of the last stale-input warning
         self._stale_logged = False
         self._seen: set[str] = set()
@@ -453,11 +454,13 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         change, so a display tick costs one pass over the watched inputs."""
         with self._plan_lock:
             watching = self.params["stale_inputs"] and not self.params["headless"]
+            producers = self.producers.states()        # (a new dict only when a producer's state changed)
             # with a simulated device latency the display shows the inputs that long later
-            stale = (self.staleness.check(now - self.view.latency_s, self.producers.states()) if watching
-                     else frozenset())
+            stale = self.staleness.check(now - self.view.latency_s, producers) if watching else frozenset()
             shown = self._shown
             if shown is not None and shown[0] is sim and shown[1] is stale:
+                if producers is not self._status_producers:           # /spv/status tells the producers' states now
+                    self._publish_status(shown[2], sim.config.mode, producers)
                 return shown[2:]
             c = sim.config
             plan = staleness.plan_display(c.mode, frozenset(sim.mode.needs),
@@ -475,14 +478,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         """Latched ``/spv/status`` (JSON) and a log line (at most one per 2 s) when what the display
         shows changes because inputs went stale or came back."""
         producers = self.producers.states()
-        status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
-                  "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
-                  "late_episodes": self.staleness.late_episodes, "producers": dict(sorted(producers.items()))}
-        try:
-            self.pub_status.publish(String(data=json.dumps(status)))
-        except RCLError:
-            if self.context.ok():
-                raise
+        self._publish_status(plan, configured_mode, producers)
         if plan.normal:
             if self._stale_logged:
                 self._stale_logged = False
@@ -496,6 +492,18 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
             what = ", ".join(self.staleness.describe(n, now, producers.get(n, staleness.UNKNOWN))
                              for n in sorted(plan.stale))
             self.get_logger().warning(f"stale input: {what}; showing {plan.describe(configured_mode)} until it comes back")
+
+    def _publish_status(self, plan: staleness.DisplayPlan, configured_mode: str, producers: dict[str, str]) -> None:
+        """Latched ``/spv/status`` (JSON): what is shown, why, and the producers' states."""
+        self._status_producers = producers
+        status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
+                  "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
+                  "late_episodes": self.staleness.late_episodes, "producers": dict(sorted(producers.items()))}
+        try:
+            self.pub_status.publish(String(data=json.dumps(status)))
+        except RCLError:
+            if self.context.ok():
+                raise
 
     def close(self) -> None:
         self._close_gaze()
