@@ -28,6 +28,7 @@ from raspv_common.conversions import (ImageEncodingError, camera_info_to_intrins
                                       seconds_to_stamp)
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.liveliness import AliveAnnouncement
+from raspv_common.malloc_tuning import keep_freed_buffers
 from raspv_common.params import Param, ParamSchema
 from raspv_common.startup_timing import startup_mark
 from raspv_common.thread_priority import BACKGROUND_NICE, lower_process_priority, raise_thread_priority
@@ -184,6 +185,7 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     simulator ("source") and perception ("perception") yield to it when the machine is short
     (``raspv_common.thread_priority``)."""
     args = list(sys.argv if argv is None else argv)
+    keep_freed_buffers()              # before rclpy's threads start allocating (raspv_common.malloc_tuning)
     if priority == "headset":
         raise_thread_priority(realtime=True)
     elif priority in BACKGROUND_NICE:

@@ -2,7 +2,8 @@
 
 Every topic of the graph whose message type is installed becomes a channel (ROS 2 CDR with a
 ``ros2msg`` schema, :mod:`raspv_viz.foxglove_server`), looked up every ``discovery_period``. A
-topic is subscribed — raw, so its bytes go out without being deserialised — only while some
+topic is subscribed — raw, so its bytes go out without being deserialised, on a thread of its own
+(:mod:`raspv_viz.raw_forwarder`) — only while some
 Foxglove client subscribes to its channel; heavy topics nobody watches cost nothing. Derived
 channel ``/raspv/latency`` (JSON): per phosphene frame, camera frame → display and the age of the
 scene result it used, from /spv/frame. Parameters of every node appear as ``/<node>.<name>``
@@ -16,6 +17,7 @@ from __future__ import annotations
 import json
 import threading
 import time
+from functools import partial
 from typing import Any
 
 import rclpy
@@ -30,6 +32,7 @@ from raspv_common.param_client import ParamClient
 from raspv_common.ros_introspection import message_class
 from raspv_viz.foxglove_params import PARAMS
 from raspv_viz.foxglove_server import FoxgloveServer, ServerConfig, ros2msg_schema
+from raspv_viz.raw_forwarder import RawForwarder
 
 LATENCY = "/raspv/latency"
 LATENCY_SCHEMA = json.dumps({
@@ -75,7 +78,9 @@ class FoxgloveNode(RaspvNode):
         self._wake = self.create_guard_condition(self._update_subscriptions)
         self._started = time.monotonic()
         self._forwarded: dict[str, list[int]] = {}   # channel → [messages, bytes] sent to clients
-        self._taken: dict[str, Any] = {}     # ROS topic → subscription
+        self._taken: dict[str, tuple[str, QoSProfile]] = {}     # ROS topic forwarded → (its type, QoS)
+        # the forwarded topics are taken on a thread of their own (raspv_viz.raw_forwarder)
+        self.forwarder = RawForwarder(self.context, f"{self.get_name()}_forward")
         self._channel_types: dict[str, str] = {}     # channel topic → message type
         self._param_clients: dict[str, ParamClient] = {}
         self._last_sent: dict[str, int] = {}         # topic → time of the last forwarded message [ns]
@@ -105,6 +110,7 @@ class FoxgloveNode(RaspvNode):
         self.create_timer(p["discovery_period"], self.discover)
 
     def close(self) -> None:
+        self.forwarder.close()
         self.server.stop()
         wall = time.monotonic() - self._started
         messages = sum(n for n, _ in self._forwarded.values())
@@ -156,14 +162,13 @@ class FoxgloveNode(RaspvNode):
         return needed
 
     def _update_subscriptions(self) -> None:
-        needed = self._needed()
-        for topic in [t for t in self._taken if t not in needed]:
-            self.destroy_subscription(self._taken.pop(topic))
-        for topic in needed - set(self._taken):
-            msgtype = self._channel_types[topic]
-            self._taken[topic] = self.create_subscription(
-                installed_class(msgtype), topic, lambda raw, t=topic: self._forward(t, raw), self._qos_for(topic),
-                raw=True)
+        needed = {t: self._channel_types[t] for t in self._needed()}
+        if needed == {t: msgtype for t, (msgtype, _) in self._taken.items()}:
+            return
+        self._taken = {t: self._taken[t] if self._taken.get(t, ("",))[0] == msgtype else (msgtype, self._qos_for(t))
+                       for t, msgtype in needed.items()}
+        self.forwarder.set_topics({t: (installed_class(msgtype), qos, partial(self._forward, t))
+                                   for t, (msgtype, qos) in self._taken.items()})
 
     def _qos_for(self, topic: str) -> QoSProfile:
         """Keep-last 2, reliable and transient-local when every publisher is (latched topics reach

@@ -138,7 +138,8 @@ def _stamp(m):
 
 
 def _foxglove_subscribes(probe, topic: str) -> bool:
-    return any(i.node_name == "foxglove" for i in probe.node.get_subscriptions_info_by_topic(topic))
+    # (the foxglove node takes its forwarded topics on a node of its own: raspv_viz.raw_forwarder)
+    return any(i.node_name == "foxglove_forward" for i in probe.node.get_subscriptions_info_by_topic(topic))
 
 
 def _wait(condition, failure: str, timeout: float = 30.0) -> None:
