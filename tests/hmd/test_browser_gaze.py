@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 import time
 
+import cv2
+
 import numpy as np
 import pytest
 
@@ -97,3 +99,53 @@ def test_the_mouse_moves_the_field_in_a_graph(graph, probe, page):
     img = np.array(drawn["pixels"], np.uint8).reshape(h, w)
     assert np.array_equal(np.array(shown["pixels"], np.uint8).reshape(h, w), shift_image(img, *expected))
     frames.wait(1, timeout=30, predicate=lambda f: (round(f.field_offset_x_px), round(f.field_offset_y_px)) == expected)
+
+
+def _grey_view(page) -> np.ndarray:
+    """The view canvas as the compositor shows it, in grey (a screenshot: WebGL's canvas is not
+    readable after its frame)."""
+    r = page.evaluate("() => { const r = document.getElementById('view').getBoundingClientRect(); "
+                      "return [r.left, r.top, r.width, r.height]; }")
+    png = page.screenshot(clip={"x": r[0], "y": r[1], "width": r[2], "height": r[3]})
+    grey = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR).max(axis=2).astype(float)
+    return grey
+
+
+@pytest.mark.slow
+def test_the_webgl_drawer_moves_the_field_with_the_gaze(graph, probe, page):
+    """The WebGL drawer (as a headset's browser with a graphics processor draws; here SwiftShader)
+    shifts the field by the same offset as the page's own drawer: what it shows after a gaze
+    step is what it showed before, moved by the offset (scaled to the screen), within the
+    resampling of a fractional shift."""
+    g, _, the_map, _, _, _ = start_gaze_graph(graph, probe, tcp_port=-1)
+    url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=60).group(1)
+    page.goto(f"{url}?gaze=mouse&overlay=0&draw=webgl")
+    wait_shown(page)
+    page.wait_for_function("() => window.raspvClient.view && window.raspvClient.drawer === 'webgl'")
+
+    def settle(offset):
+        page.wait_for_function(f"() => window.raspvClient.fieldOffset[0] === {offset[0]} && "
+                               f"window.raspvClient.fieldOffset[1] === {offset[1]}", timeout=30_000)
+        n = page.evaluate("() => window.raspvClient.framesShown")
+        page.wait_for_function(f"() => window.raspvClient.framesShown >= {n + 3}", timeout=30_000)
+        return _grey_view(page)
+
+    move_to(page, 0.0, 0.0)
+    before = settle((0, 0))
+    yaw, pitch = -6.0, 4.0
+    move_to(page, yaw, pitch)
+    expected = tuple(int(v) for v in np.round(field_offset_px(direction_from_angles(yaw, pitch), the_map.focal_px)))
+    after = settle(expected)
+    h, w = before.shape
+    scale = min(w / the_map.width, h / the_map.height)          # levels-image px → screen px (fit, centred)
+    x0, y0 = (w - the_map.width * scale) / 2, (h - the_map.height * scale) / 2
+    dx, dy = int(round(expected[0] * scale)), int(round(expected[1] * scale))
+    # the image's box, less the strip the shift moved in from outside it
+    xs = slice(int(np.ceil(x0)) + max(dx, 0) + 1, int(x0 + the_map.width * scale) + min(dx, 0) - 1)
+    ys = slice(int(np.ceil(y0)) + max(dy, 0) + 1, int(y0 + the_map.height * scale) + min(dy, 0) - 1)
+    moved = np.roll(before, (dy, dx), axis=(0, 1))
+    assert before[ys, xs].max() > 50                               # phosphenes lit in the compared region
+    err_moved = np.abs(after[ys, xs] - moved[ys, xs]).mean()
+    err_still = np.abs(after[ys, xs] - before[ys, xs]).mean()
+    # shifted by the offset: within resampling (< 3 grey levels on average), far from unshifted
+    assert err_moved < 3.0 and err_moved < err_still / 4, (err_moved, err_still, expected, scale)
