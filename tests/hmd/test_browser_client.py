@@ -121,6 +121,9 @@ def test_page_shows_phosphenes_and_sends_body_and_head_motion(page, streaming_se
     # the page asks for the levels stream (it can draw it); a server without sprites sends images
     assert state["role"] == "control" and state["format"] == "levels" and state["drawsLevels"]
     assert state["size"] == "640×480"
+    # the status line is rewritten at most 4×/s (raspv_hmd/client/client.js): wait for the one
+    # written after the first round trip
+    page.wait_for_function("() => document.getElementById('status').innerText.includes('RTT')", timeout=10_000)
     status = page.inner_text("#status")
     assert "controlling" in status and "fps" in status and "RTT" in status
     shot = tmp_path / "client.png"
