@@ -120,7 +120,7 @@ def test_train_and_compare_commands(tiny, tmp_path, capsys, monkeypatch):
 
 
 def test_the_shipped_comparisons_print_without_data(capsys):
-    for name in ("argus_iii",):             # optimist's comparison is not shipped yet (docs/learn.md)
+    for name in ("argus_iii", "optimist"):
         assert raspv(["learn", "compare", name, "--shipped"]) == 0
         printed = capsys.readouterr().out
         assert "| learned |" in printed and "(best hand-designed)" in printed
