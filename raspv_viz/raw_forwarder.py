@@ -40,7 +40,6 @@ class RawForwarder:
         self._changed = True
         self._stop = False
         self._wake = self.node.create_guard_condition(lambda: None)
-        self.taken = 0                              # messages passed to callbacks
         self._thread = threading.Thread(target=self._run, name=f"{name}-take", daemon=True)
         self._thread.start()
 
@@ -98,7 +97,6 @@ class RawForwarder:
                         taken = sub.handle.take_message(sub.msg_type, True)
                         if taken is None:
                             break
-                        self.taken += 1
                         callback(taken[0])
         except Exception:  # noqa: BLE001 - the context shut down under the wait (process stopping)
             if self._context.ok() and not self._stop:

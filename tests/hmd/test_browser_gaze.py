@@ -6,8 +6,6 @@ from __future__ import annotations
 import math
 import time
 
-import cv2
-
 import numpy as np
 import pytest
 
@@ -15,7 +13,8 @@ from raspv_hmd import protocol as P
 from raspv_spv.gaze import angle_between_deg, direction_from_angles, field_offset_px, shift_image
 
 from .test_gaze_native_client import start_gaze_graph
-from .test_browser_client import browser_context, page, pytestmark, streaming_server, wait_shown  # noqa: F401
+from .test_browser_client import (browser_context, canvas_pixels, page, pytestmark, streaming_server,  # noqa: F401
+                                  wait_shown)
 
 FOCAL = 500.0
 
@@ -104,11 +103,10 @@ def test_the_mouse_moves_the_field_in_a_graph(graph, probe, page):
 def _grey_view(page) -> np.ndarray:
     """The view canvas as the compositor shows it, in grey (a screenshot: WebGL's canvas is not
     readable after its frame)."""
-    r = page.evaluate("() => { const r = document.getElementById('view').getBoundingClientRect(); "
-                      "return [r.left, r.top, r.width, r.height]; }")
-    png = page.screenshot(clip={"x": r[0], "y": r[1], "width": r[2], "height": r[3]})
-    grey = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR).max(axis=2).astype(float)
-    return grey
+    x, y, w, h = (int(round(v)) for v in page.evaluate(
+        "() => { const r = document.getElementById('view').getBoundingClientRect(); "
+        "return [r.left, r.top, r.width, r.height]; }"))
+    return canvas_pixels(page)[y:y + h, x:x + w].max(axis=2).astype(float)
 
 
 @pytest.mark.slow
