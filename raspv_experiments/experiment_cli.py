@@ -52,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("sweep")
     p.add_argument("--out", default=None, help="CSV file (default: sweeps/<sweep name>/quick_trials.csv)")
     p.add_argument("--subjects", default=None, metavar="N,N,...", help="only these virtual subjects of the sweep")
+    p.add_argument("--summarise", nargs="+", default=None, metavar="CSV",
+                   help="run nothing: summarise these quick-sweep CSVs (e.g. one per --subjects process)")
     p = sub.add_parser("report", help="tidy CSV and HTML report with figures and statistics")
     p.add_argument("dirs", nargs="+", metavar="DIR", help="session or sweep folders (searched for trials.jsonl)")
     p.add_argument("-o", "--out", default="report", help="output folder (default: report)")
@@ -239,7 +241,7 @@ def _sweep(args) -> int:
 
 
 def _quick_sweep(args) -> int:
-    from raspv_experiments.quick_sweep import check_quick, run_quick_sweep, summarise, summary_table
+    from raspv_experiments.quick_sweep import check_quick, read_quick_csv, run_quick_sweep, summarise, summary_table
 
     sweep = _load_sweep(args.sweep)
     if sweep is None:
@@ -253,11 +255,27 @@ def _quick_sweep(args) -> int:
     if problems:
         print("\n".join(problems), file=sys.stderr)
         return 2
-    out = Path(args.out or f"sweeps/{sweep.name}/quick_trials.csv")
-    records = run_quick_sweep(sweep, out)
+    if args.summarise:
+        try:
+            records = read_quick_csv(args.summarise)
+        except (OSError, ValueError) as exc:
+            return _err(str(exc))
+        out = ", ".join(args.summarise)
+    else:
+        out = Path(args.out or f"sweeps/{sweep.name}/quick_trials.csv")
+        records = run_quick_sweep(sweep, out)
     factor = next(iter(sweep.protocol.factors), None)
     limits = {t.name: t.time_limit for t in sweep.protocol.tasks}
-    print(summary_table(summarise(records, limits, factor, sweep.protocol.factors.get(factor)), factor or "condition"))
+    levels = sweep.protocol.factors.get(factor)
+    print(summary_table(summarise(records, limits, factor, levels), factor or "condition"))
+    if factor and levels and len(levels) >= 3:
+        from raspv_experiments.trend import ordered_trends, trend_table
+
+        try:
+            print(f"\nTrend over {factor} (in the sweep file's order; raspv_experiments/trend.py):")
+            print(trend_table(ordered_trends(records, limits, factor, [str(v) for v in levels]), factor))
+        except ValueError as exc:
+            print(f"no trend: {exc}")
     print(f"trials: {out}")
     return 0
 

@@ -79,6 +79,19 @@ class PolicyConfig:
     frame_period_s: float = 0.1      # assumed time between frames when they carry no time
 
 
+def floor_points(layout: PhospheneLayout, config: PolicyConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The view rays (N, 3) of the phosphenes of ``layout`` with the head pitched down by
+    ``config.head_pitch_deg`` (body frame: x forward, y left, z up) and the floor points (N, 2)
+    [m, x forward, y left] they look at from ``config.eye_height`` (NaN at and above the horizon)."""
+    pitch = math.radians(config.head_pitch_deg)
+    r = layout.rays()
+    c, s = math.cos(pitch), math.sin(pitch)
+    rays = np.column_stack([c * r[:, 0] + s * r[:, 2], r[:, 1], -s * r[:, 0] + c * r[:, 2]])
+    below = rays[:, 2] < -0.02
+    scale = np.where(below, config.eye_height / np.maximum(-rays[:, 2], 1e-6), np.nan)
+    return rays, rays[:, :2] * scale[:, None]
+
+
 class Policy(ABC):
     name = ""
 
@@ -86,13 +99,7 @@ class Policy(ABC):
         self.layout = layout
         self.config = config or PolicyConfig()
         self.rng = np.random.default_rng(self.config.seed)
-        pitch = math.radians(self.config.head_pitch_deg)
-        r = layout.rays()
-        c, s = math.cos(pitch), math.sin(pitch)
-        self.rays = np.column_stack([c * r[:, 0] + s * r[:, 2], r[:, 1], -s * r[:, 0] + c * r[:, 2]])   # pitched head
-        below = self.rays[:, 2] < -0.02
-        scale = np.where(below, self.config.eye_height / np.maximum(-self.rays[:, 2], 1e-6), np.nan)
-        self.ground = self.rays[:, :2] * scale[:, None]        # floor point each phosphene looks at (x fwd, y left) [m]
+        self.rays, self.ground = floor_points(layout, self.config)    # pitched head; floor point each looks at
         self.ground_distance = np.hypot(self.ground[:, 0], self.ground[:, 1])
         self._history: deque[tuple[np.ndarray, float]] = deque(maxlen=self.STILL_FRAMES)
         self._back, self._back_side = 0, 1.0

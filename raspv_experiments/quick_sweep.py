@@ -157,6 +157,34 @@ class LevelSummary:
     phosphenes_shown: int
 
 
+def read_quick_csv(paths: list[str | Path]) -> list[QuickTrialRecord]:
+    """The rows of quick-sweep CSV files (e.g. one per process of a sweep split by ``--subjects``),
+    in file order; a trial present twice (same subject, condition, task, repetition) is an error."""
+    out: list[QuickTrialRecord] = []
+    seen: set[tuple] = set()
+    for path in paths:
+        with open(path, newline="") as handle:
+            reader = csv.DictReader(handle)
+            if reader.fieldnames is None or set(reader.fieldnames) != set(COLUMNS):
+                raise ValueError(f"{path}: not a quick-sweep CSV (expected the columns {', '.join(COLUMNS)})")
+            for line, row in enumerate(reader, 2):
+                try:
+                    factors = dict(kv.split("=", 1) for kv in row["factors"].split(";") if kv)
+                    rec = QuickTrialRecord(int(row["subject"]), row["condition"], factors, row["task"],
+                                           int(row["repetition"]), row["success"] == "True",
+                                           float(row["completion_time_s"]), float(row["duration_s"]),
+                                           int(row["collisions"]), float(row["path_length_m"]),
+                                           int(row["phosphenes_shown"]), float(row["wall_s"]))
+                except (ValueError, TypeError) as exc:
+                    raise ValueError(f"{path}:{line}: {exc}") from None
+                key = (rec.subject, rec.condition, rec.task, rec.repetition)
+                if key in seen:
+                    raise ValueError(f"{path}:{line}: trial {key} appears twice")
+                seen.add(key)
+                out.append(rec)
+    return out
+
+
 def _bootstrap_mean_ci(values: np.ndarray, seed: int = 1) -> tuple[float, float]:
     from scipy import stats
 

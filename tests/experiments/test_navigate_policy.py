@@ -100,26 +100,38 @@ def test_a_bump_makes_it_step_back_and_turn():
     p = Navigate(layout, PolicyConfig(**STILL), goal=(6.0, 0.0))
     p.act(floor_frame(layout), 0.0)
     p.touch()
+    bumped_at = p.pose.copy()
     back = p.act(floor_frame(layout), 0.1)
     assert back.linear < 0 and back.angular != 0.0
-    later = [p.act(floor_frame(layout), 0.1 * k) for k in range(2, 14)]
-    assert later[-1].linear > 0.1
+    later, poses = [], []
+    for k in range(2, 40):
+        later.append(p.act(floor_frame(layout), 0.1 * k))
+        poses.append(p.pose[:2].copy())
+    assert later[-1].linear > 0.1                                        # walking again within 4 s
+    felt = np.array([(x, y) for x, y, _ in p.memory])                   # what it bumped into is remembered,
+    assert len(felt) == 1 and np.hypot(*(felt[0] - bumped_at[:2])) < 0.4     # just ahead of where it bumped,
+    assert np.hypot(*(np.array(poses) - felt[0]).T).min() > 0.25        # and walked round it (body radius)
+    assert poses[-1][0] > felt[0][0]                                     # to beyond it
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("mode, reaches", [("depth", True), ("grey", False)])
-def test_the_representation_decides_whether_it_gets_past_the_crate(mode, reaches):
-    """The documented example's task (the crate in the straight line to the goal), virtual subject 1:
-    depth shows the crate nearer than the floor; downsampled grey hardly shows it."""
-    from raspv_experiments.quick_trial import quick_trial
+def test_the_representation_decides_whether_they_get_past_the_crate():
+    """The documented example sweep's task (the crate in the straight line to the goal), virtual
+    subjects 1-4 as the sweep runs them (its seeds): with depth (the crate nearer than the floor) all
+    reach the goal without touching it; downsampled grey hardly shows it: fewer reach, or bump."""
+    from raspv_experiments.quick_sweep import run_quick_sweep
+    from raspv_experiments.sweep import load_sweep
 
     from tests.experiments.conftest import REPO
 
-    r = quick_trial(str(REPO / "experiments" / "worlds" / "hallway.yaml"), (1.0, 2.1, 0.0), (8.6, 1.5, 0.8), 40.0,
-                    {"device": "argus_ii", "mode": mode, "temporal": False, "max_depth": 3.0},
-                    config=PolicyConfig(seed=1, **subject_ability(1)))
-    assert r.success == reaches, (r.time_s, r.collisions)
-    assert (r.collisions == 0) == reaches
+    sweep = load_sweep(REPO / "experiments" / "example_sweep.yaml")
+    sweep.subjects = [1, 2, 3, 4]
+    records = run_quick_sweep(sweep, progress=None)
+    depth = [r for r in records if r.condition == "depth"]
+    grey = [r for r in records if r.condition == "downsampling"]
+    assert len(depth) == len(grey) == 4
+    assert all(r.success and r.collisions == 0 for r in depth), [(r.duration_s, r.collisions) for r in depth]
+    assert sum(r.success for r in grey) < 4 or sum(r.collisions for r in grey) > 0
 
 
 def test_one_phosphene_is_an_obstacle_only_when_phosphenes_are_far_apart():
@@ -145,7 +157,8 @@ def test_one_phosphene_is_an_obstacle_only_when_phosphenes_are_far_apart():
 
 def test_an_obstacle_is_remembered_where_it_meets_the_floor():
     """A box face lights a run of phosphenes up a column: their rays' floor points reach far behind
-    it, but only the lowest (its base) is remembered — the same cells at 10x10 and 50x50 phosphenes."""
+    it, but only the lowest (its base) is remembered, as the floor patch between its ray and the
+    ray below — nearly the same nearest cells at 10x10 and 50x50 phosphenes."""
     nearest = {}
     for n in (10, 50):
         layout = grid_layout(n)
@@ -156,8 +169,11 @@ def test_an_obstacle_is_remembered_where_it_meets_the_floor():
         for k in range(2):
             p.act(frame, 0.1 * k)
         cells = np.array([(x, y) for x, y, _ in p.memory])
-        base = p.ground[face & (layout.y == layout.y[face].max()), 0]
-        assert np.ptp(cells[:, 0]) <= 0.1, n                                           # one row: the base,
-        assert abs(cells[:, 0].mean() - base.mean()) < 0.15, n                         # (5 cm cells, a step walked)
+        base = p.ground[face & (layout.y == layout.y[face].max()), 0].mean()          # the lowest row of the face
+        floor = p.ground[layout.y == layout.y[layout.y > layout.y[face].max()].min(), 0].mean()  # the row below it
+        # between the base's ray and the floor seen below it (the patch where the base may be:
+        # 5 cm cells, a step walked), nothing behind it where the face's upper rays meet the floor
+        assert floor - 0.15 < cells[:, 0].min() and cells[:, 0].max() < base + 0.15, n
+        assert p.ground[face, 0].max() > base + 0.7, n                                # (those reach ≥ 0.7 m further)
         nearest[n] = cells[:, 0].min()
     assert abs(nearest[10] - nearest[50]) < 0.25

@@ -1,0 +1,114 @@
+"""The ordered-trend statistics of a sweep over an ordered factor (raspv_experiments/trend.py), the
+quick-sweep CSVs they are read from, and the shipped obstacle-course result: its rows are what the
+code gives (re-run in part, exactly), and its trend is the one docs/experiments.md states."""
+from __future__ import annotations
+
+import csv
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from raspv_experiments.quick_sweep import COLUMNS, QuickTrialRecord, read_quick_csv
+from raspv_experiments.trend import ordered_trends, trend_table
+
+REPO = Path(__file__).resolve().parents[2]
+SHIPPED = REPO / "experiments" / "results" / "obstacle_course_sweep.quick.csv"
+FACTOR = "spv.num_phosphenes"
+
+
+def record(subject, level, success, time_s, collisions):
+    return QuickTrialRecord(subject, f"n={level}", {FACTOR: str(level)}, "course", 1, success,
+                            time_s if success else math.nan, time_s, collisions, 20.0, level, 1.0)
+
+
+def saturating(reverse: bool = False) -> list[QuickTrialRecord]:
+    """8 subjects: at level 16 none reach the end, from 100 on all do, a little faster at 324."""
+    levels = [16, 100, 324, 2500]
+    out = []
+    for s in range(1, 9):
+        for i, level in enumerate(levels):
+            k = len(levels) - 1 - i if reverse else i
+            reached = k >= 1
+            out.append(record(s, level, reached, [90.0, 60.0 + s, 50.0 + s, 49.5 + s + (s % 2)][k], [3, 1, 0, 0][k]))
+    return out
+
+
+def test_a_rise_that_levels_off_is_a_trend_with_its_saturation_level():
+    trends = {t.measure: t for t in ordered_trends(saturating(), {"course": 90.0}, FACTOR, ["16", "100", "324", "2500"])}
+    assert trends["success"].page_p < 0.01 and trends["time_s"].page_p < 0.001
+    assert trends["success"].means == [0.0, 1.0, 1.0, 1.0]
+    first = trends["time_s"].steps[0]
+    assert first.mean_difference < -25 and first.ci[1] < 0                     # 16 → 100: faster, CI below 0
+    assert trends["success"].levels_off_at == "100"
+    assert trends["time_s"].levels_off_at == "324"                               # 100 → 324: 10 s faster every time
+    table = trend_table(list(trends.values()), FACTOR)
+    assert "16 → 100" in table and "| 324 |" in table
+
+
+def test_the_opposite_order_is_no_evidence_of_improvement():
+    trends = ordered_trends(saturating(reverse=True), {"course": 90.0}, FACTOR, ["16", "100", "324", "2500"])
+    assert all(t.page_p > 0.5 for t in trends)
+    flat = [record(s, level, True, 40.0, 0) for s in range(1, 5) for level in (16, 100, 324)]
+    assert all(t.page_p == 1.0 and t.levels_off_at == "16"
+               for t in ordered_trends(flat, {"course": 90.0}, FACTOR, ["16", "100", "324"]))
+    with pytest.raises(ValueError, match="3 ordered levels"):
+        ordered_trends(flat, {"course": 90.0}, FACTOR, ["16", "100"])
+
+
+def test_quick_sweep_csvs_are_read_back_and_refused_when_wrong(tmp_path):
+    rows = saturating()
+    path = tmp_path / "a.csv"
+    with open(path, "w", newline="") as handle:
+        w = csv.DictWriter(handle, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow(r.row())
+    back = read_quick_csv([path])
+    assert [(r.subject, r.factors, r.success, r.collisions) for r in back] == \
+        [(r.subject, r.factors, r.success, r.collisions) for r in rows]
+    with pytest.raises(ValueError, match="appears twice"):
+        read_quick_csv([path, path])
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match="not a quick-sweep CSV"):
+        read_quick_csv([bad])
+
+
+def test_the_shipped_count_sweep_rises_and_levels_off_as_documented():
+    """docs/experiments.md: success 17 % at 4x4, 75 % at 10x10, ≥ 92 % from 18x18; Page's test
+    significant for success, time and collisions; the 16 → 100 step's CI excludes 0 for all three."""
+    out = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "experiment", "quick-sweep",
+                          "obstacle_course_sweep", "--summarise", str(SHIPPED)],
+                         capture_output=True, text=True, cwd=REPO, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "| 16 | 16 | 12 | 17 % " in out.stdout and "| 100 | 100 | 12 | 75 % " in out.stdout
+    records = read_quick_csv([SHIPPED])
+    levels = ["16", "100", "324", "676", "2500"]
+    trends = ordered_trends(records, {"course": 90.0}, FACTOR, levels)
+    for t in trends:
+        assert t.page_p < 0.05, t.measure
+        assert t.steps[0].ci[0] * t.steps[0].ci[1] > 0, t.measure              # 16 → 100 excludes 0
+        assert t.levels_off_at == "100", t.measure
+    success = trends[0].means
+    assert success[0] < 0.25 and min(success[2:]) >= 0.9
+
+
+@pytest.mark.slow
+def test_the_shipped_rows_are_what_the_code_gives():
+    """One subject's five trials re-run: the same records as shipped (lockstep, seeded)."""
+    from raspv_experiments.quick_sweep import run_quick_sweep
+    from raspv_experiments.sweep import load_sweep
+
+    sweep = load_sweep(REPO / "experiments" / "obstacle_course_sweep.yaml")
+    sweep.subjects = [7]
+    shipped = {(r.subject, r.condition): r for r in read_quick_csv([SHIPPED])}
+    again = run_quick_sweep(sweep, progress=None)
+    assert len(again) == 5
+    for r in again:
+        s = shipped[(r.subject, r.condition)]
+        assert (r.success, r.collisions, r.duration_s) == (s.success, s.collisions, pytest.approx(s.duration_s)), r
+        assert np.isclose(r.path_length_m, s.path_length_m)
