@@ -185,7 +185,9 @@ def read_quick_csv(paths: list[str | Path]) -> list[QuickTrialRecord]:
     return out
 
 
-def _bootstrap_mean_ci(values: np.ndarray, seed: int = 1) -> tuple[float, float]:
+def bootstrap_mean_ci(values: np.ndarray, seed: int = 1) -> tuple[float, float]:
+    """Percentile-bootstrap 95 % CI of the mean of ``values`` (9999 resamples, seeded); a point
+    when there are fewer than 2 values or all are equal."""
     from scipy import stats
 
     v = np.asarray(values, float)
@@ -212,9 +214,9 @@ def summarise(records: list[QuickTrialRecord], time_limits: dict[str, float], fa
         per = {name: np.array([np.mean([f(r) for r in rows if r.subject == s]) for s in subjects]) for name, f in (
             ("success", lambda r: float(r.success)), ("collisions", lambda r: float(r.collisions)),
             ("time", lambda r: r.completion_time_s if r.success else time_limits.get(r.task, r.duration_s)))}
-        out.append(LevelSummary(level, len(subjects), float(per["success"].mean()), _bootstrap_mean_ci(per["success"]),
-                                float(per["collisions"].mean()), _bootstrap_mean_ci(per["collisions"]),
-                                float(per["time"].mean()), _bootstrap_mean_ci(per["time"]),
+        out.append(LevelSummary(level, len(subjects), float(per["success"].mean()), bootstrap_mean_ci(per["success"]),
+                                float(per["collisions"].mean()), bootstrap_mean_ci(per["collisions"]),
+                                float(per["time"].mean()), bootstrap_mean_ci(per["time"]),
                                 int(np.median([r.phosphenes_shown for r in rows]))))
     return out
 

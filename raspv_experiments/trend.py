@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from raspv_experiments.quick_sweep import bootstrap_mean_ci
+
 MEASURES = (("success", +1), ("time_s", -1), ("collisions", -1))      # name, the direction that is better
 
 
@@ -44,17 +46,6 @@ class Trend:
         """The level after the last adjacent step whose CI excludes 0 (the first level when none does)."""
         changed = [i for i, s in enumerate(self.steps) if s.ci[0] > 0 or s.ci[1] < 0]
         return self.levels[changed[-1] + 1] if changed else self.levels[0]
-
-
-def _bootstrap_ci(values: np.ndarray, seed: int) -> tuple[float, float]:
-    from scipy import stats
-
-    v = np.asarray(values, float)
-    if len(v) < 2 or np.all(v == v[0]):
-        return float(v.mean()), float(v.mean())
-    ci = stats.bootstrap((v,), np.mean, confidence_level=0.95, n_resamples=9999, method="percentile",
-                         random_state=np.random.default_rng(seed)).confidence_interval
-    return float(ci.low), float(ci.high)
 
 
 def subject_matrix(records, time_limits: dict[str, float], factor: str, levels: list[str], measure: str
@@ -99,7 +90,7 @@ def ordered_trends(records, time_limits: dict[str, float], factor: str, levels: 
             res = stats.page_trend_test(oriented, method="asymptotic")
             page_l, page_p = float(res.statistic), float(res.pvalue)
         steps = [Step(levels[i], levels[i + 1], float(np.mean(m[:, i + 1] - m[:, i])),
-                      _bootstrap_ci(m[:, i + 1] - m[:, i], seed=100 * k + i + 1)) for i in range(len(levels) - 1)]
+                      bootstrap_mean_ci(m[:, i + 1] - m[:, i], seed=100 * k + i + 1)) for i in range(len(levels) - 1)]
         out.append(Trend(measure, better, list(levels), [float(v) for v in m.mean(axis=0)], page_l, page_p, steps))
     return out
 
