@@ -95,8 +95,9 @@ def plan_route(pose_xy: np.ndarray, goal_xy: np.ndarray, obstacles_xy: np.ndarra
             steps = max(abs(ki - r0), abs(kj - c0), 1)
             rr = np.round(np.linspace(r0, ki, steps + 1)).astype(int)
             cc = np.round(np.linspace(c0, kj, steps + 1)).astype(int)
-            straight = RESOLUTION * math.hypot(ki - r0, kj - c0) * float(np.mean(cost[rr, cc]))     # cost·m, as dist
-            if np.isfinite(cost[rr, cc]).all() and straight + dist[ki * n + kj] <= dist[start] + SWITCH:
+            straight = RESOLUTION * math.hypot(ki - r0, kj - c0)                                   # m
+            if np.isfinite(cost[rr, cc]).all() and (straight * float(np.mean(cost[rr, cc]))          # cost·m, as dist
+                                                    + dist[ki * n + kj] <= dist[start] + SWITCH):
                 cells, walked, k = list(rr * n + cc), straight, ki * n + kj
     while walked < length:
         nxt = int(pred[k])
