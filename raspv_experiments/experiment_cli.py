@@ -52,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("sweep")
     p.add_argument("--out", default=None, help="CSV file (default: sweeps/<sweep name>/quick_trials.csv)")
     p.add_argument("--subjects", default=None, metavar="N,N,...", help="only these virtual subjects of the sweep")
+    p.add_argument("--figure", default=None, metavar="DIR",
+                   help="also draw the summary per level (success, time, collisions with CIs) into DIR/levels.png, .pdf")
     p.add_argument("--summarise", nargs="+", default=None, metavar="CSV",
                    help="run nothing: summarise these quick-sweep CSVs (e.g. one per --subjects process)")
     p = sub.add_parser("report", help="tidy CSV and HTML report with figures and statistics")
@@ -267,7 +269,13 @@ def _quick_sweep(args) -> int:
     factor = next(iter(sweep.protocol.factors), None)
     limits = {t.name: t.time_limit for t in sweep.protocol.tasks}
     levels = sweep.protocol.factors.get(factor)
-    print(summary_table(summarise(records, limits, factor, levels), factor or "condition"))
+    summaries = summarise(records, limits, factor, levels)
+    print(summary_table(summaries, factor or "condition"))
+    if args.figure:
+        from raspv_experiments.report_figures import level_summaries
+
+        png = level_summaries(summaries, factor or "condition", Path(args.figure), title=sweep.name)
+        print(f"figure: {Path(args.figure).parent / png}")
     if factor and levels and len(levels) >= 3:
         from raspv_experiments.trend import ordered_trends, trend_table
 

@@ -185,3 +185,25 @@ def main_effects(rows, factors: dict[str, list[str]], out: Path) -> str:
     axes[0][0].set_ylabel("success rate (95 % Wilson CI)")
     fig.suptitle("Main effects of the sweep's factors (each level pooled over the others)", fontsize=9)
     return _save(fig, out, "main_effects")
+
+
+def level_summaries(summaries, factor: str, out: Path, name: str = "levels", title: str = "") -> str:
+    """Success, completion time (limit counted) and collisions per level of an ordered factor —
+    means over subjects with their 95 % CIs (:func:`raspv_experiments.quick_sweep.summarise`'s
+    rows), levels in their order."""
+    x = np.arange(len(summaries))
+    fig, axes = plt.subplots(1, 3, figsize=(7.0, 2.3))
+    panels = (("reached the goal [%]", lambda s: (100 * s.success, [100 * v for v in s.success_ci])),
+              ("time [s] (limit counted)", lambda s: (s.time_s, list(s.time_ci))),
+              ("collisions per trial", lambda s: (s.collisions, list(s.collisions_ci))))
+    for ax, (label, get) in zip(axes, panels):
+        mean = np.array([get(s)[0] for s in summaries])
+        ci = np.array([get(s)[1] for s in summaries])
+        ax.errorbar(x, mean, yerr=[mean - ci[:, 0], ci[:, 1] - mean], color=COLORS[0], marker="o", capsize=3)
+        ax.set_xticks(x, [s.level for s in summaries])
+        ax.set_xlabel(factor)
+        ax.set_ylabel(label)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, out, name)
