@@ -30,7 +30,7 @@ HEADSET_NICE = -10           # display thread and headset server thread (without
 # path (display, bridge, the browser page) when the machine is short: lower rates chosen on
 # purpose instead of display frames dropped at random. Raising a nice value needs no permission.
 SOURCE_NICE = 2              # cameras (real, recorded, simulated): behind the display and the page
-PERCEPTION_NICE = 5         # scene, stairs, segmentation, odometry, planner, views: behind their camera
+PERCEPTION_NICE = 5          # scene, stairs, segmentation, odometry, planner, views: behind their camera
 BACKGROUND_NICE = {"source": SOURCE_NICE, "perception": PERCEPTION_NICE}
 HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv, bridge)
 DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work

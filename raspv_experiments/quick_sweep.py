@@ -185,6 +185,18 @@ def read_quick_csv(paths: list[str | Path]) -> list[QuickTrialRecord]:
     return out
 
 
+def measure_of(record: QuickTrialRecord, measure: str, time_limits: dict[str, float]) -> float:
+    """One trial's ``success`` (0/1), ``collisions`` or ``time_s`` (completion time; a trial cut
+    off counted at its task's time limit, a lower bound)."""
+    if measure == "success":
+        return float(record.success)
+    if measure == "collisions":
+        return float(record.collisions)
+    if measure == "time_s":
+        return record.completion_time_s if record.success else time_limits.get(record.task, record.duration_s)
+    raise ValueError(f"unknown measure {measure!r}: success, collisions or time_s")
+
+
 def bootstrap_mean_ci(values: np.ndarray, seed: int = 1) -> tuple[float, float]:
     """Percentile-bootstrap 95 % CI of the mean of ``values`` (9999 resamples, seeded); a point
     when there are fewer than 2 values or all are equal."""
@@ -211,12 +223,11 @@ def summarise(records: list[QuickTrialRecord], time_limits: dict[str, float], fa
         if not rows:
             continue
         subjects = sorted({r.subject for r in rows})
-        per = {name: np.array([np.mean([f(r) for r in rows if r.subject == s]) for s in subjects]) for name, f in (
-            ("success", lambda r: float(r.success)), ("collisions", lambda r: float(r.collisions)),
-            ("time", lambda r: r.completion_time_s if r.success else time_limits.get(r.task, r.duration_s)))}
+        per = {name: np.array([np.mean([measure_of(r, name, time_limits) for r in rows if r.subject == s])
+                               for s in subjects]) for name in ("success", "collisions", "time_s")}
         out.append(LevelSummary(level, len(subjects), float(per["success"].mean()), bootstrap_mean_ci(per["success"]),
                                 float(per["collisions"].mean()), bootstrap_mean_ci(per["collisions"]),
-                                float(per["time"].mean()), bootstrap_mean_ci(per["time"]),
+                                float(per["time_s"].mean()), bootstrap_mean_ci(per["time_s"]),
                                 int(np.median([r.phosphenes_shown for r in rows]))))
     return out
 

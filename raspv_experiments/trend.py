@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raspv_experiments.quick_sweep import bootstrap_mean_ci
+from raspv_experiments.quick_sweep import bootstrap_mean_ci, measure_of
 
 MEASURES = (("success", +1), ("time_s", -1), ("collisions", -1))      # name, the direction that is better
 
@@ -52,19 +52,13 @@ def subject_matrix(records, time_limits: dict[str, float], factor: str, levels: 
                    ) -> tuple[list[int], np.ndarray]:
     """(subjects, (S, L) array): each subject's mean of ``measure`` at each level; subjects
     missing a level are left out (the test is within-subject)."""
-    def value(r) -> float:
-        if measure == "success":
-            return float(r.success)
-        if measure == "collisions":
-            return float(r.collisions)
-        return r.completion_time_s if r.success else time_limits.get(r.task, r.duration_s)
-
     subjects = sorted({r.subject for r in records})
     rows, kept = [], []
     for s in subjects:
         row = []
         for level in levels:
-            vals = [value(r) for r in records if r.subject == s and str(r.factors.get(factor, r.condition)) == level]
+            vals = [measure_of(r, measure, time_limits) for r in records
+                    if r.subject == s and str(r.factors.get(factor, r.condition)) == level]
             row.append(np.mean(vals) if vals else np.nan)
         if np.isfinite(row).all():
             rows.append(row)
