@@ -2,7 +2,7 @@
 VENV ?= .venv
 PYTEST_ARGS ?=
 
-.PHONY: install demo test test-fast clean
+.PHONY: install demo test test-fast docs clean
 
 install:
 	@tools/install.sh
@@ -16,5 +16,9 @@ test: install
 test-fast: install
 	@$(VENV)/bin/python -m pytest -m "not integration and not browser and not slow" $(PYTEST_ARGS)
 
+# the documentation site into site/ (strict: a broken link or reference fails the build)
+docs: install
+	@NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) build
+	rm -rf $(VENV) build site

@@ -2,7 +2,7 @@
 
 Each entry is a module exposing ``add_arguments(parser)`` and ``run(args) -> int``, and a quick
 mode (``--quick``: a smoke run in seconds that the test suite runs, its figures printed, not the
-README's): its own ``--quick`` option, or a ``QUICK`` mapping of option → value that this
+speed page's): its own ``--quick`` option, or a ``QUICK`` mapping of option → value that this
 dispatcher applies.
 """
 from __future__ import annotations
@@ -49,5 +49,5 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "quick", False) and getattr(mod, "QUICK", None) is not None:
         for key, value in mod.QUICK.items():
             setattr(args, key, value)
-        print(f"raspv bench {args.bench} --quick: a smoke run (small sizes, short times); not the README's figures")
+        print(f"raspv bench {args.bench} --quick: a smoke run (small sizes, short times); not the speed page's figures")
     return mod.run(args)

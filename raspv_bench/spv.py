@@ -264,7 +264,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.quick:
         quick(args)
-        print("raspv bench spv --quick: small sizes, few frames — a smoke run, not the README's figures")
+        print("raspv bench spv --quick: small sizes, few frames — a smoke run, not the speed page's figures")
 
     try:
         part_ours(args)
