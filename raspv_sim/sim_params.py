@@ -2,7 +2,7 @@
 from raspv_common.params import Param
 
 PARAMS = [
-    Param("world", "apartment", "shipped world name (apartment, stairs, office) or path of a world YAML file", dynamic=False,
+    Param("world", "apartment", "shipped world name (apartment, stairs, office, grocery) or path of a world YAML file", dynamic=False,
           file_kind="world"),
     Param("width", 320, "image width", minimum=16, maximum=1920, dynamic=False, unit="px"),
     Param("height", 240, "image height", minimum=16, maximum=1080, dynamic=False, unit="px"),

@@ -63,7 +63,7 @@ def test_render_writes_the_view_figure_and_an_overview(tmp_path, capsys):
 def test_unknown_world_is_one_line(capsys):
     assert sim_cli(["map", "atlantis"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == ("raspv sim: unknown world 'atlantis': shipped worlds are apartment, office, stairs, "
+    assert err == ("raspv sim: unknown world 'atlantis': shipped worlds are apartment, grocery, office, stairs, "
                    "or give the path of a YAML file")
 
 

@@ -28,7 +28,7 @@ def test_three_worlds_are_shipped():
     assert {"apartment", "stairs", "office"} <= set(shipped_worlds())
 
 
-@pytest.mark.parametrize("name", ["apartment", "stairs", "office"])
+@pytest.mark.parametrize("name", ["apartment", "stairs", "office", "grocery"])
 def test_shipped_world_loads_builds_and_has_a_sensible_map(name):
     spec = load_world(name)
     assert spec.classes[:len(BUILTIN_CLASSES)] == BUILTIN_CLASSES
@@ -122,7 +122,7 @@ def test_invalid_yaml_and_unknown_names(tmp_path):
     f.write_text("floor: {from: [0, 0], to: [1, 1]\nspawn: x\n")
     with pytest.raises(WorldFileError, match=r"bad.yaml: line \d+, column \d+: invalid YAML"):
         load_world(f)
-    with pytest.raises(WorldFileError, match="unknown world 'atlantis': shipped worlds are apartment, office, stairs"):
+    with pytest.raises(WorldFileError, match="unknown world 'atlantis': shipped worlds are apartment, grocery, office, stairs"):
         load_world("atlantis")
     with pytest.raises(WorldFileError, match="no such world file"):
         load_world(tmp_path / "missing.yaml")
