@@ -37,6 +37,7 @@ import yaml
 from raspv_bags.message_types import typestore
 from raspv_bags.writer import BagWriter, QosSpec
 from raspv_common import topics as T
+from raspv_common.frames import MAP
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.rgbd_files import RGBDFormatError, depth_from_scaled_uint16, read_color, read_nyu_disparity
 
@@ -444,7 +445,7 @@ class RgbdBagWriter:
             self.writer.write(T.DEPTH, stamp_ns, self.ser.image(np.asarray(depth, np.float32), "32FC1", header))
         self.writer.write(T.CAMERA_INFO, stamp_ns, self.ser.camera_info(camera, header))
         if pose is not None:
-            self.writer.write(T.CAMERA_POSE, stamp_ns, self.ser.pose(pose, self.ser.header(stamp_ns, "world")))
+            self.writer.write(T.CAMERA_POSE, stamp_ns, self.ser.pose(pose, self.ser.header(stamp_ns, MAP)))
         self.frames += 1
 
     def close(self) -> None:

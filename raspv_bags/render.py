@@ -34,6 +34,7 @@ from raspv_bags.from_frames import FramesError, intrinsics_for
 from raspv_bags.reader import BagError, BagMessage, BagReader
 from raspv_common import topics as T
 from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, pose_to_matrix, rgb_from_image
+from raspv_common.frames import is_map_frame
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_spv.config import config_from_node_params
 from raspv_spv.frame_inputs import FrameInputs
@@ -256,8 +257,8 @@ class BagFrameSource:
         path = self._decode(msg)
         if path is None:
             return
-        if path.header.frame_id not in ("world", ""):
-            self._note_once("pathframe", f"ignored {msg.topic} in frame {path.header.frame_id!r}; expected 'world'")
+        if not is_map_frame(path.header.frame_id):
+            self._note_once("pathframe", f"ignored {msg.topic} in frame {path.header.frame_id!r}; expected 'map'")
             return
         self.nav_path = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z] for p in path.poses],
                                  dtype=float).reshape(-1, 3)

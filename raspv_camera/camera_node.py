@@ -4,7 +4,8 @@ graph's source.
 Publishes the standard source topics — colour ``rgb8``, depth registered to colour (``32FC1``
 metres or ``16UC1`` millimetres), ``camera_info`` for both — stamped with the sensor's own
 timestamps mapped to ROS time, and ``/camera/imu`` (``sensor_msgs/Imu``, accelerometer and
-gyroscope in the colour optical frame, orientation unknown) when the device has an IMU. The
+gyroscope in the colour optical frame, orientation unknown) when the device has an IMU, and its
+mounting on ``/tf_static`` (``base_link → camera_link → frame_id``, :mod:`raspv_common.frames`). The
 camera itself is run by :class:`~raspv_camera.camera_runner.CameraRunner` in a thread:
 unplugged or missing devices are reported and retried, recordings are paced and looped.
 """
@@ -21,10 +22,11 @@ from raspv_camera.camera_runner import CameraRunner, RunnerOptions
 from raspv_camera.drivers import driver_for_file, list_all_devices, make_driver
 from raspv_camera.rgbd_frame import CameraError, ImuSample, NoDevice, RgbdFrame
 from raspv_camera.sdk_imports import SDKS
-from raspv_common import topics
+from raspv_common import frames, topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, seconds_to_stamp
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import IMU_QOS, SENSOR_QOS
+from raspv_common.tf_messages import StaticTfBroadcaster
 
 
 def depth_for_encoding(frame: RgbdFrame, encoding: str) -> np.ndarray:
@@ -73,6 +75,11 @@ class CameraNode(RaspvNode):
         self.pub_info = self.create_publisher(CameraInfo, topics.CAMERA_INFO, SENSOR_QOS)
         self.pub_depth_info = self.create_publisher(CameraInfo, topics.DEPTH_INFO, SENSOR_QOS)
         self.pub_imu = self.create_publisher(Imu, topics.IMU, IMU_QOS) if p["imu"] else None
+        if len(p["mounting_xyz"]) != 3 or len(p["mounting_rpy"]) != 3:
+            raise ConfigurationError(f"mounting_xyz and mounting_rpy take three numbers each, got "
+                                     f"{p['mounting_xyz']} and {p['mounting_rpy']}")
+        StaticTfBroadcaster(self).send(frames.camera_mounting_edges(
+            p["frame_id"], frames.mounting_transform(p["mounting_xyz"], p["mounting_rpy"])))
         self.runner = CameraRunner(self._make_driver, bool(p["file"]), options, self._publish_frame,
                                    self._publish_imu if p["imu"] else None, self._log, on_state=self.announce_source)
         self._info_cache: tuple | None = None

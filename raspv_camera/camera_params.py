@@ -17,6 +17,11 @@ PARAMS = [
     Param("depth_encoding", "32FC1", "depth image encoding (REP 118): 32FC1 metres or 16UC1 millimetres",
           choices=("32FC1", "16UC1"), dynamic=False),
     Param("frame_id", "camera_color_optical_frame", "frame_id of images, camera info and IMU", dynamic=False),
+    Param("mounting_xyz", [0.0, 0.0, 0.0], "where the camera body (camera_link) sits in base_link, x y z: the "
+          "static tf base_link → camera_link (zeros: the camera is the body, hand-held or worn)", dynamic=False,
+          unit="m"),
+    Param("mounting_rpy", [0.0, 0.0, 0.0], "the camera body's roll pitch yaw in base_link (fixed axes x, y, z)",
+          dynamic=False, unit="deg"),
     Param("rate", 1.0, "recording playback speed factor", minimum=0.05, maximum=20.0),
     Param("at_end", "loop", "at the end of a recording: loop, hold (publish nothing more) or exit",
           choices=("loop", "hold", "exit"), dynamic=False),

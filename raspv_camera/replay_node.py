@@ -2,7 +2,10 @@
 
 Publishes the bag's messages — serialised bytes unchanged — on their topics (after remapping)
 with their original timing, using the same QoS classes as the live graph
-(:func:`raspv_bags.playback.publisher_qos`), and the bag's time on ``/clock``. The
+(:func:`raspv_bags.playback.publisher_qos`), and the bag's time on ``/clock``. Transforms: the
+recording's ``/tf`` less the frames ``tf_exclude`` names (a pose node of the graph owns them), its
+``/tf_static`` as one merged message, or — a recording without one — the camera mounting
+``base_link → camera_link → <image frame>`` (:mod:`raspv_bags.replayed_tf`). The
 playback itself is :class:`raspv_bags.playback.Player`, run in a thread; the executor
 keeps serving parameters (``rate``, ``paused``, ``loop`` change while playing). At the end
 (or on shutdown) it logs the messages sent and the timing error (p50/p95/max).
@@ -18,10 +21,11 @@ from rosgraph_msgs.msg import Clock
 
 from raspv_bags.playback import PlaybackOptions, PlaybackReport, Player, parse_remap, publisher_qos
 from raspv_bags.reader import BagError
+from raspv_bags.replayed_tf import ReplayedTf, header_frame_id
 from raspv_camera.replay_params import PARAMS
 from raspv_common import topics
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
-from raspv_common.qos import EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.qos import EVENT_QOS, LATCHED_QOS, SENSOR_QOS, TF_STATIC_QOS
 from raspv_common.ros_introspection import message_class
 
 _CLASS_QOS = {"sensor": SENSOR_QOS, "latched": LATCHED_QOS, "event": EVENT_QOS}
@@ -67,6 +71,14 @@ class ReplayNode(RaspvNode):
             self.player.reader.close()
             raise ConfigurationError(f"{p['bag']}: none of its message types are installed; nothing to replay")
         self.pub_clock = self.create_publisher(Clock, topics.CLOCK, CLOCK_QOS) if p["publish_clock"] else None
+        self.replayed_tf = ReplayedTf(p["tf_exclude"])
+        self._mounting_from = None          # a recording without /tf_static: its first image's frame is mounted
+        if topics.TF_STATIC not in self.publishers_by_topic:
+            from tf2_msgs.msg import TFMessage
+            self.publishers_by_topic[topics.TF_STATIC] = self.create_publisher(TFMessage, topics.TF_STATIC,
+                                                                                TF_STATIC_QOS)
+            self._mounting_from = {topics.CAMERA_INFO: "sensor_msgs/msg/CameraInfo",
+                                   topics.COLOR: "sensor_msgs/msg/Image", topics.DEPTH: "sensor_msgs/msg/Image"}
         for note in self.player.notes:
             self.get_logger().warning(note)
         r = self.player.reader
@@ -87,7 +99,18 @@ class ReplayNode(RaspvNode):
 
     # -- playback thread ----------------------------------------------------------------------
     def _publish(self, topic: str, _msgtype: str, data) -> None:
-        self._send(self.publishers_by_topic[topic], data if isinstance(data, bytes) else bytes(data))
+        data = data if isinstance(data, bytes) else bytes(data)
+        if topic == topics.TF:
+            data = self.replayed_tf.tf(data)
+        elif topic == topics.TF_STATIC:
+            data = self.replayed_tf.tf_static(data)
+        elif self._mounting_from is not None and topic in self._mounting_from:
+            frame = header_frame_id(data, self._mounting_from[topic])
+            self._mounting_from = None
+            self._send(self.publishers_by_topic[topics.TF_STATIC], self.replayed_tf.mounting(
+                frame, self.get_clock().now().nanoseconds))
+        if data is not None:
+            self._send(self.publishers_by_topic[topic], data)
         if self.params["progress"]:
             self._print_status()
 
@@ -176,6 +199,8 @@ class ReplayNode(RaspvNode):
             return
         self._checks_left -= 1
         for topic in self.publishers_by_topic:
+            if topic in (topics.TF, topics.TF_STATIC):       # every node that owns a transform publishes these
+                continue
             n = self.count_publishers(topic)
             if n > 1:
                 self.warn_throttled(f"dup:{topic}", f"{topic} is also published by {n - 1} other node(s); "

@@ -11,6 +11,9 @@ PARAMS = [
     Param("topics", [], "bag topics to play (empty: all)", dynamic=False),
     Param("exclude_topics", [], "bag topics not to play", dynamic=False),
     Param("remap", [], "topic remappings '/bag/topic:=/published/topic'", dynamic=False),
+    Param("tf_exclude", [], "child frames whose transforms in the recording's /tf and /tf_static are not replayed, "
+          "because a pose node of the graph publishes them (replay.yaml: odom, base_link for its slam node)",
+          dynamic=False),
     Param("publish_clock", True, "publish the bag's time on /clock (for nodes with use_sim_time)", dynamic=False),
     Param("clock_rate", 100.0, "/clock messages per second between bag messages", minimum=0.0, maximum=1000.0,
           dynamic=False, unit="Hz"),

@@ -30,3 +30,13 @@ IMU_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
 # the trial's log; the spv node reads them keep-last 2 (only the newest matters to the display).
 GAZE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                       reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+# tf as tf2_ros does it: /tf reliable keep-last 100 (a burst of transforms is not lost); /tf_static
+# reliable, transient-local, keep-last 1: each node sends all its static transforms in one message,
+# which late joiners (RViz, a recorder) still get.
+TF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+TF_STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                           reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# what a tf listener subscribes /tf_static with: every publisher's latched message
+TF_STATIC_LISTENER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                                    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)

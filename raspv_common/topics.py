@@ -4,12 +4,12 @@
 COLOR = "/camera/color/image_raw"           # sensor_msgs/Image rgb8
 DEPTH = "/camera/depth/image_raw"           # sensor_msgs/Image 32FC1 metres, registered to colour
 CAMERA_INFO = "/camera/color/camera_info"   # sensor_msgs/CameraInfo
-CAMERA_POSE = "/camera/pose"                # geometry_msgs/PoseStamped, world <- camera optical
+CAMERA_POSE = "/camera/pose"                # geometry_msgs/PoseStamped, map <- camera optical (frame_id map)
 DEPTH_INFO = "/camera/depth/camera_info"    # sensor_msgs/CameraInfo of the registered depth (camera node)
 IMU = "/camera/imu"                         # sensor_msgs/Imu in the colour optical frame (camera node, when the device has one)
 
 # Simulator only.
-ODOM = "/odom"                              # nav_msgs/Odometry, base in world
+ODOM = "/odom"                              # nav_msgs/Odometry, base_link in odom
 SIM_LABELS = "/sim/labels"                  # sensor_msgs/Image mono8, ground-truth class ids
 SIM_COLLISIONS = "/sim/collisions"          # raspv_msgs/CollisionEvent
 SIM_CLASSES = "/sim/classes"                # std_msgs/String JSON {id: class name}, latched
@@ -43,6 +43,14 @@ SPV_FRAME = "/spv/frame"                    # raspv_msgs/PhospheneFrame
 SPV_MAP = "/spv/map"                        # raspv_msgs/PhospheneMap, transient-local
 SPV_SPRITES = "/spv/sprites"                # raspv_msgs/PhospheneSprites, transient-local: what the levels stream draws with
 SPV_STATUS = "/spv/status"                  # std_msgs/String JSON, latched: what the display shows and which inputs are stale
+
+# Transforms (REP 105 tree map → odom → base_link → … → camera optical; raspv_common/frames.py).
+TF = "/tf"                                  # tf2_msgs/TFMessage, moving transforms (poses, the head)
+TF_STATIC = "/tf_static"                    # tf2_msgs/TFMessage, transient-local: mountings and fixed offsets
+
+# Localisation (the slam node, raspv_slam).
+SLAM_STATE = "/slam/state"                  # std_msgs/String JSON, transient-local: tracking state, keyframes, inliers
+SLAM_MARKERS = "/slam/markers"              # visualization_msgs/MarkerArray (map frame): keyframes, landmarks, loop edges
 
 CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; sim: simulation time)
 

@@ -32,6 +32,7 @@ from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from std_msgs.msg import String
 
 from raspv_common import topics
+from raspv_common.frames import BASE_LINK
 from raspv_common.node import RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
@@ -166,12 +167,12 @@ class SubjectNode(RaspvNode):
         self.pub_cmd.publish(twist)
         answer = TwistStamped(twist=twist)
         answer.header.stamp = msg.source_stamp
-        answer.header.frame_id = "base"
+        answer.header.frame_id = BASE_LINK
         self.pub_step.publish(answer)
 
     def _publish_head(self, pitch: float) -> None:
         q = head_quaternion(0.0, pitch, 0.0)
-        self.pub_head.publish(QuaternionStamped(header=self.header("base"),
+        self.pub_head.publish(QuaternionStamped(header=self.header(BASE_LINK),
                                                 quaternion=Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])))
 
 

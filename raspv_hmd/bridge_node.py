@@ -24,6 +24,7 @@ from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, Vector3, Vec
 from std_msgs.msg import String
 
 from raspv_common import topics
+from raspv_common.frames import BASE_LINK
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS
@@ -107,7 +108,7 @@ class BridgeNode(BridgeFrames, RaspvNode):
     # -- from the controlling client (server thread) ----------------------------------------------
     def on_head(self, q: tuple[float, float, float, float], _client_time: float | None) -> None:
         x, y, z, w = q
-        self.pub_head.publish(QuaternionStamped(header=self.header("base"), quaternion=Quaternion(x=x, y=y, z=z, w=w)))
+        self.pub_head.publish(QuaternionStamped(header=self.header(BASE_LINK), quaternion=Quaternion(x=x, y=y, z=z, w=w)))
 
     def on_gaze(self, client: int, direction: tuple[float, float, float] | None, client_time: float | None,
                 arrival: float) -> None:

@@ -39,7 +39,7 @@ from nav_msgs.msg import Path as PathMsg
 from raspv_msgs.msg import NavGuidance, PhospheneFrame
 from sensor_msgs.msg import CameraInfo, Image
 
-from raspv_common import topics
+from raspv_common import frames, topics
 from raspv_common.conversions import pose_to_matrix, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.pose_buffer import PoseBuffer
@@ -70,7 +70,7 @@ class PlannerNode(RaspvNode):
         self.camera_poses = PoseBuffer(max_age_s=5.0, max_extrapolation_s=0.1)
         self.velocity_estimator = VelocityEstimator()
         self.odom_velocity: tuple[float, float] | None = None
-        self.frame_id = "world"
+        self.frame_id = frames.MAP       # the frame of /camera/pose; the sim's /odom is ground truth (odom = map)
         self.pending_depth: tuple[float, np.ndarray] | None = None     # waits for a pose at its stamp
         self._goal_reached_logged = False
         self.timings: dict[str, deque] = {k: deque(maxlen=5000) for k in ("replan", "depth", "control")}
@@ -170,7 +170,6 @@ class PlannerNode(RaspvNode):
             return
         v, w = msg.twist.twist.linear.x, msg.twist.twist.angular.z
         self.odom_velocity = (float(v), float(w)) if math.isfinite(v) and math.isfinite(w) else (0.0, 0.0)
-        self.frame_id = msg.header.frame_id or self.frame_id
         self.assistant.set_subject(stamp_to_seconds(msg.header.stamp), *planar_pose(T, axis=0))
         if self.lockstep:
             self._lock_in["odom"] = max(self._lock_in["odom"], stamp_to_seconds(msg.header.stamp))
@@ -185,7 +184,6 @@ class PlannerNode(RaspvNode):
             self.warn_throttled("pose", f"ignoring {topics.CAMERA_POSE}: {exc}")
             return
         if not self._use_odom():           # no body odometry: the subject walks where the camera looks
-            self.frame_id = msg.header.frame_id or self.frame_id
             x, y, yaw = planar_pose(T, axis=2)
             self.velocity_estimator.add(stamp, x, y, yaw)
             self.assistant.set_subject(stamp, x, y, yaw)

@@ -8,6 +8,10 @@ node reports (z up, z = 0 on the floor, x along the first view direction); poses
 from then on. Without a floor within ``anchor_timeout`` seconds (or with
 ``gravity_from_floor`` off) the first camera is assumed level and W sits at its centre.
 A failed registration holds the last pose and is reported (throttled).
+
+``/camera/pose`` is in ``map``; tf: ``map → odom`` identity on /tf_static (this odometry does not
+correct its drift: map = odom) and ``odom → base_link`` per pose (through the source's mounting,
+:class:`~raspv_common.tf_messages.CameraPoseTf`). The `slam` node is the peer that corrects it.
 """
 from __future__ import annotations
 
@@ -19,11 +23,12 @@ from geometry_msgs.msg import PoseStamped
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from sensor_msgs.msg import CameraInfo, Image
 
-from raspv_common import topics
+from raspv_common import frames, topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, matrix_to_pose,
                                       rgb_from_image)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATEST_QOS, SENSOR_QOS
+from raspv_common.tf_messages import CameraPoseTf
 from raspv_perception.odometry_params import PARAMS
 from raspv_perception.rgbd_odometry import OdometryConfig, RGBDOdometry
 
@@ -46,6 +51,7 @@ class OdometryNode(RaspvNode):
         self.last_key: int | None = None            # stamp [ns] of the last frame registered
         self.publishing = not p["gravity_from_floor"]
         self.pub_pose = self.create_publisher(PoseStamped, topics.CAMERA_POSE, SENSOR_QOS)
+        self.tf = CameraPoseTf(self, static_map_odom=True)
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
         self.create_subscription(Image, topics.COLOR, lambda m: self.on_image("color", m), LATEST_QOS)
         self.create_subscription(Image, topics.DEPTH, lambda m: self.on_image("depth", m), LATEST_QOS)
@@ -98,9 +104,10 @@ class OdometryNode(RaspvNode):
             self.publishing = True
         if self.publishing:
             out = PoseStamped(header=depth_msg.header)
-            out.header.frame_id = "world"
+            out.header.frame_id = frames.MAP
             out.pose = matrix_to_pose(step.world_from_camera)
             self.pub_pose.publish(out)
+            self.tf.publish(depth_msg.header.stamp, depth_msg.header.frame_id, step.world_from_camera)
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         if self.odometry.anchored or self.publishing or not msg.floor_found:   # never move a published world

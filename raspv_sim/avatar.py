@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet
 
+from raspv_common.frames import LINK_FROM_OPTICAL
 from raspv_sim.world_builder import BuiltWorld
 
 SUBSTEP = 0.05            # m, longest straight move checked at once
 GROUND_PROBE_GAP = 0.01   # m, between the top of the ground probe and the bottom of the body
 # optical frame (x right, y down, z forward) expressed in the head frame (x forward, y left, z up)
-HEAD_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+HEAD_FROM_OPTICAL = LINK_FROM_OPTICAL[:3, :3]
 
 
 @dataclass(frozen=True)
@@ -140,13 +141,24 @@ class Avatar:
         T[:3, 3] = (self.x, self.y, self.z)
         return T
 
+    def base_from_head(self) -> np.ndarray:
+        """The head frame (neck pivot, turned by the head orientation) in B: the tf ``base_link → head``."""
+        c = self.config
+        T = np.eye(4)
+        T[:3, :3] = quaternion_matrix(self.head)
+        T[:3, 3] = (0.0, 0.0, c.eye_height - c.neck_to_eye[2])
+        return T
+
+    def head_from_camera_link(self) -> np.ndarray:
+        """The camera body (eye, x forward, z up) in the head frame: the fixed tf ``head → camera_link``."""
+        T = np.eye(4)
+        T[:3, 3] = self.config.neck_to_eye
+        return T
+
     def base_from_camera(self) -> np.ndarray:
         """Camera optical frame in B (neck pivot, head rotation, eye offset)."""
-        c = self.config
-        R = quaternion_matrix(self.head)
-        T = np.eye(4)
-        T[:3, :3] = R @ HEAD_FROM_OPTICAL
-        T[:3, 3] = np.array([0.0, 0.0, c.eye_height - c.neck_to_eye[2]]) + R @ np.asarray(c.neck_to_eye)
+        T = self.base_from_head() @ self.head_from_camera_link()
+        T[:3, :3] = T[:3, :3] @ HEAD_FROM_OPTICAL
         return T
 
     def world_from_camera(self) -> np.ndarray:

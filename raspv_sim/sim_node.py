@@ -1,7 +1,8 @@
 """`sim` node: the virtual world as an RGB-D source (same topics as a real camera) plus ground truth.
 
-Publishes colour (rgb8), depth (32FC1 m), camera info, ``/camera/pose`` (world ← camera optical),
-``/odom`` (base in world), ``/sim/labels`` (mono8 class ids), ``/sim/classes`` (latched
+Publishes colour (rgb8), depth (32FC1 m), camera info, ``/camera/pose`` (map ← camera optical),
+``/odom`` (base_link in odom), the tf tree of ground truth (``/tf_static``: map → odom identity,
+head → camera_link → optical; ``/tf`` per frame: odom → base_link, base_link → head), ``/sim/labels`` (mono8 class ids), ``/sim/classes`` (latched
 std_msgs/String, JSON ``{"world": name, "classes": [name of id 0, id 1, ...]}``) and
 ``/sim/collisions`` (raspv_msgs/CollisionEvent). Subscribes ``/cmd_vel`` (Twist, base frame) and
 ``/head/orientation`` (QuaternionStamped, head relative to the base; identity looks ahead).
@@ -23,18 +24,20 @@ import math
 import threading
 import time
 
+import numpy as np
 from geometry_msgs.msg import Point, PoseStamped, QuaternionStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from raspv_msgs.msg import CollisionEvent as CollisionEventMsg
 from raspv_msgs.srv import EndTrial, StartTrial
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image
-from std_msgs.msg import String
+from std_msgs.msg import Header, String
 
-from raspv_common import topics
+from raspv_common import frames, topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.tf_messages import StaticTfBroadcaster, TfBroadcaster
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
 from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
@@ -105,6 +108,13 @@ class SimNode(SimGazeLog, RaspvNode):
         self.pub_collisions = self.create_publisher(CollisionEventMsg, topics.SIM_COLLISIONS, EVENT_QOS)
         self.pub_classes = self.create_publisher(String, topics.SIM_CLASSES, LATCHED_QOS)
         self.pub_classes.publish(String(data=json.dumps({"world": self.sim.spec.name, "classes": list(self.sim.classes)})))
+        # ground truth: map = odom (no drift); the head turns under base_link; the eye and the
+        # optical axes are fixed to the head
+        self.tf = TfBroadcaster(self)
+        StaticTfBroadcaster(self).send([
+            (frames.MAP, frames.ODOM, np.eye(4)),
+            (frames.HEAD, frames.CAMERA_LINK, self.sim.avatar.head_from_camera_link()),
+            (frames.CAMERA_LINK, p["frame_id"], frames.LINK_FROM_OPTICAL)])
         self._commands = [self.create_subscription(Twist, topics.CMD_VEL, self.on_cmd_vel, COMMAND_QOS),
                           self.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, self.on_head, COMMAND_QOS)]
         self._setup_gaze_log()              # every eye-gaze sample into the run's log (gaze.csv), while one is written
@@ -165,8 +175,9 @@ class SimNode(SimGazeLog, RaspvNode):
             if now - self._held_repeat >= 0.5:          # where the world holds, for late subscribers
                 self._held_repeat = now
                 self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
-                header = self.header("world", self.sim.t)
+                header = self.header(frames.ODOM, self.sim.t)
                 self.pub_odom.publish(self.odometry(header))
+                self.publish_tf(header.stamp)
             return
         if self.params["paused"] or not self.lockstep.poll(now):
             return
@@ -285,10 +296,11 @@ class SimNode(SimGazeLog, RaspvNode):
             self.get_logger().info(f"first camera frame published, stamp {h.sec + 1e-9 * h.nanosec:.6f}")
         if frame.labels is not None:
             self.pub_labels.publish(array_to_image(frame.labels, "mono8", header))
-        world_header = self.header("world")
+        world_header = self.header(frames.MAP)
         world_header.stamp = header.stamp
+        self.publish_tf(header.stamp)
         self.pub_pose.publish(PoseStamped(header=world_header, pose=matrix_to_pose(frame.world_from_camera)))
-        self.pub_odom.publish(self.odometry(world_header))
+        self.pub_odom.publish(self.odometry(Header(stamp=header.stamp, frame_id=frames.ODOM)))
         for event in report.collisions:
             self.pub_collisions.publish(self.collision_msg(event, world_header))
             self.get_logger().info(f"collision #{event.count} with {event.cls} '{event.name}' at {event.speed:.2f} m/s")
@@ -300,9 +312,15 @@ class SimNode(SimGazeLog, RaspvNode):
         self.timings["frames"] += 1
         return report
 
+    def publish_tf(self, stamp) -> None:
+        """odom → base_link (the avatar) and base_link → head (the head joint) at ``stamp``."""
+        a = self.sim.avatar
+        self.tf.send([(frames.ODOM, frames.BASE_LINK, a.world_from_base()),
+                      (frames.BASE_LINK, frames.HEAD, a.base_from_head())], stamp)
+
     def odometry(self, header) -> Odometry:
         a = self.sim.avatar
-        msg = Odometry(header=header, child_frame_id="base")
+        msg = Odometry(header=header, child_frame_id=frames.BASE_LINK)
         msg.pose.pose = matrix_to_pose(a.world_from_base())
         msg.twist.twist.linear.x = self.sim.linear
         msg.twist.twist.angular.z = self.sim.angular

@@ -18,6 +18,7 @@ import tty
 from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist
 
 from raspv_common import topics
+from raspv_common.frames import BASE_LINK
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS
 from raspv_sim.avatar import head_quaternion
@@ -93,7 +94,7 @@ class TeleopNode(RaspvNode):
         twist.linear.x, twist.angular.z = v, w
         self.pub_cmd.publish(twist)
         x, y, z, qw = head_quaternion(roll, pitch, yaw)
-        self.pub_head.publish(QuaternionStamped(header=self.header("base"), quaternion=Quaternion(x=x, y=y, z=z, w=qw)))
+        self.pub_head.publish(QuaternionStamped(header=self.header(BASE_LINK), quaternion=Quaternion(x=x, y=y, z=z, w=qw)))
 
     def close(self) -> None:
         self.running = False

@@ -53,6 +53,7 @@ from std_msgs.msg import String
 from raspv_common import topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, image_to_array,
                                       pose_to_matrix, rgb_from_image, stamp_to_seconds)
+from raspv_common.frames import is_map_frame
 from raspv_common.liveliness import ProducerWatch
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
@@ -70,6 +71,7 @@ from raspv_spv.background_build import BackgroundBuilder
 from raspv_spv.display_clock import DisplayClock
 from raspv_spv.spv_node_display import REPORT_PERIOD_S, SpvDisplay
 from raspv_spv.spv_node_gaze import SpvGaze
+from raspv_spv.spv_node_frames import SpvFrames
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -87,7 +89,7 @@ INPUT_TOPICS = {"color": topics.COLOR, "depth": topics.DEPTH, "scene": topics.SC
                 "stairs": topics.STAIRS, "segmentation": topics.SEGMENTATION_LABELS}
 
 
-class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
+class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
@@ -145,6 +147,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         self.clock = DisplayClock()
         self._shown_head: np.ndarray | None = None      # the last head orientation that poked the display
         self._setup_gaze()                              # eye gaze (gaze_mode, raspv_spv.spv_node_gaze)
+        self._setup_frames()                            # the phosphene frame in tf, the slam state in /spv/status
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
         self._headless_stamp: float | None = None
         if not self.params["headless"]:
@@ -251,8 +254,8 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
 
     def on_nav_path(self, msg: PathMsg) -> None:
         """The navigation path (world frame) as an (N, 3) array for the path overlay."""
-        if msg.header.frame_id not in ("world", ""):
-            self.warn_throttled("path", f"ignoring {topics.NAV_PATH} in frame {msg.header.frame_id!r}; expected 'world'")
+        if not is_map_frame(msg.header.frame_id):
+            self.warn_throttled("path", f"ignoring {topics.NAV_PATH} in frame {msg.header.frame_id!r}; expected 'map'")
             return
         self.extras["nav_path"] = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
                                             for p in msg.poses], dtype=float).reshape(-1, 3)
@@ -499,6 +502,8 @@ class SpvNode(SpvDisplay, SpvGaze, SpvReconfiguration, RaspvNode):
         status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
                   "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
                   "late_episodes": self.staleness.late_episodes, "producers": dict(sorted(producers.items()))}
+        if getattr(self, "localisation", None) is not None:
+            status["localisation"] = self.localisation
         try:
             self.pub_status.publish(String(data=json.dumps(status)))
         except RCLError:

@@ -19,6 +19,7 @@ from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_prior
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv import staleness
 from raspv_spv.gaze import shift_image
+from raspv_spv.spv_node_frames import PHOSPHENE_FRAME
 from raspv_spv.sprites_msg import sprites_to_msg
 
 REPORT_PERIOD_S = 10.0
@@ -41,7 +42,7 @@ class SpvDisplay:
             frames = max(1, int(round((t0 - self._last_tick) / period)))
             self._dropped += frames - 1
         self._last_tick = t0
-        header = self.header("phosphene", stamp)
+        header = self.header(PHOSPHENE_FRAME, stamp)
         with self._sim_lock:
             sim, map_id = self.sim, self.map_id
             plan, shown_sim, no_data = self._shown_for(sim, t0)
@@ -124,7 +125,7 @@ class SpvDisplay:
     def publish_map(self) -> None:
         sim, map_id = self.sim, self.map_id
         m, c = sim.map, sim.config
-        msg = PhospheneMap(header=self.header("phosphene"), map_id=map_id, device=c.device.name, width=c.width,
+        msg = PhospheneMap(header=self.header(PHOSPHENE_FRAME), map_id=map_id, device=c.device.name, width=c.width,
                            height=c.height, fov_deg=c.device.fov_deg, focal_px=m.focal_px,
                            phosphene_fov_deg=c.device.phosphene_fov_deg, phosphene_diameter_px=m.diameter_px,
                            grid=PhospheneMap.GRID_HEXAGONAL if c.device.grid == "hexagonal" else PhospheneMap.GRID_RECTANGULAR,

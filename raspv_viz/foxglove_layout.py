@@ -1,8 +1,9 @@
 """The shipped Foxglove layout, built with foxglove-sdk's layout types (no rclpy).
 
 Left: the phosphene image over the camera's colour image. Middle: the 3-D scene in the world
-frame — markers of planes, obstacles, free floor, stairs, path and phosphenes (`viz` node), the
-coloured depth cloud, the costmap. Right: latency (camera frame → display, age of the scene
+frame ``map``, following ``base_link`` through the tf tree (/tf, /tf_static) — markers of planes,
+obstacles, free floor, stairs, path and phosphenes (`viz` node), the slam node's keyframes,
+landmarks and loop edges, the coloured depth cloud, the costmap. Right: latency (camera frame → display, age of the scene
 result, ``/raspv/latency``), CPU (the machine and the foxglove process, ``/sysinfo``) and the
 parameter panel (``/spv.mode`` & co.).
 
@@ -17,12 +18,13 @@ from pathlib import Path
 
 import foxglove.layouts as fl
 
-from raspv_common import topics
+from raspv_common import frames, topics
 
 LAYOUT_FILE = Path(__file__).resolve().parents[1] / "config" / "foxglove_layout.json"
 LATENCY = "/raspv/latency"
 SYSINFO = "/sysinfo"
 MARKER_TOPICS = (topics.VIZ_SCENE, topics.VIZ_STAIRS, topics.VIZ_PATH, topics.VIZ_PHOSPHENES)
+SLAM_MARKER_TOPICS = (topics.SLAM_MARKERS,)
 
 
 def image(topic: str, title: str) -> fl.ImagePanel:
@@ -34,8 +36,10 @@ def scene_3d() -> fl.ThreeDeePanel:
     shown[topics.VIZ_CLOUD] = fl.BaseRendererPointCloudTopicSettings(visible=True, point_size=3.0, color_mode="rgb",
                                                                        color_field="rgb")
     shown[topics.NAV_COSTMAP] = fl.BaseRendererRosOccupancyGridTopicSettings(visible=True, color_mode="costmap")
-    return fl.ThreeDeePanel(title="scene (world frame)",
-                            config=fl.ThreeDeeConfig(follow_tf="world", fixed_frame="world", topics=shown))
+    shown.update({t: fl.BaseRendererRosMarkerTopicSettings(visible=True) for t in SLAM_MARKER_TOPICS})
+    return fl.ThreeDeePanel(title="scene (map frame, tf)",
+                            config=fl.ThreeDeeConfig(follow_tf=frames.BASE_LINK, follow_mode="follow-position",
+                                                     fixed_frame=frames.MAP, topics=shown))
 
 
 def plot(title: str, series: list[tuple[str, str]]) -> fl.PlotPanel:

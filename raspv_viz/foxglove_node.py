@@ -29,6 +29,7 @@ from raspv_bags.message_types import typestore
 from raspv_common import topics
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
+from raspv_common.qos import TF_QOS, TF_STATIC_LISTENER_QOS
 from raspv_common.ros_introspection import message_class
 from raspv_viz.foxglove_params import PARAMS
 from raspv_viz.foxglove_server import FoxgloveServer, ServerConfig, ros2msg_schema
@@ -43,6 +44,7 @@ LATENCY_SCHEMA = json.dumps({
 PARAM_TIMEOUT_S = 2.0
 _PYTHON_TYPES = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
                  float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING}
+TF_TOPICS = frozenset({topics.TF, topics.TF_STATIC})
 
 
 def installed_class(msgtype: str):
@@ -172,7 +174,12 @@ class FoxgloveNode(RaspvNode):
 
     def _qos_for(self, topic: str) -> QoSProfile:
         """Keep-last 2, reliable and transient-local when every publisher is (latched topics reach
-        a late Foxglove client), best-effort when any publisher is."""
+        a late Foxglove client), best-effort when any publisher is; tf as a tf listener takes it
+        (every node's latched /tf_static message, no /tf sample lost)."""
+        if topic == topics.TF_STATIC:
+            return TF_STATIC_LISTENER_QOS
+        if topic == topics.TF:
+            return TF_QOS
         infos = self.get_publishers_info_by_topic(topic)
         latched = bool(infos) and all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
         reliable = all(i.qos_profile.reliability != ReliabilityPolicy.BEST_EFFORT for i in infos)
@@ -183,7 +190,7 @@ class FoxgloveNode(RaspvNode):
     def _forward(self, topic: str, raw: bytes) -> None:
         now = time.time_ns()
         max_rate = self.params["max_rate"]
-        if max_rate > 0:                         # thin fast topics for viewers (max_rate)
+        if max_rate > 0 and topic not in TF_TOPICS:     # thin fast topics for viewers (not tf: every edge counts)
             if now - self._last_sent.get(topic, 0) < 1e9 / max_rate:
                 return
             self._last_sent[topic] = now

@@ -3,8 +3,9 @@
 Subscribes to /scene/structure, /stairs, /nav/path, /spv/map + /spv/frame, depth, colour and
 camera info, and /camera/pose; publishes MarkerArrays on /viz/scene, /viz/stairs, /viz/path,
 /viz/phosphenes and a PointCloud2 on /viz/cloud (raspv_common/topics.py). Markers of camera-frame
-results are drawn in the world frame with the camera pose at their stamp (``fixed_frame``),
-so the scene stays put while the camera moves. Off the headset path: normal scheduling; depth,
+results are drawn in ``map`` with the camera pose at their stamp (``fixed_frame``), so the scene
+stays put while the camera moves; RViz and Foxglove put ``map`` (and the camera's optical frame,
+``fixed_frame: camera``) into any fixed frame of the graph's tf tree. Off the headset path: normal scheduling; depth,
 colour and phosphene frames are taken raw and deserialised only at the cloud and phosphene rates.
 """
 from __future__ import annotations
@@ -18,7 +19,7 @@ from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
-from raspv_common import topics
+from raspv_common import frames, topics
 from raspv_common.conversions import (ImageEncodingError, depth_from_image, pose_to_matrix, rgb_from_image,
                                       stamp_to_seconds)
 from raspv_common.node import RaspvNode, run_node
@@ -32,7 +33,7 @@ from raspv_viz.scene_markers import path_markers, scene_markers, stair_markers
 from raspv_viz.viz_msg import marker_array, point_cloud
 from raspv_viz.viz_params import PARAMS
 
-WORLD = "world"
+WORLD = frames.MAP
 
 
 class VizNode(RaspvNode):
@@ -82,7 +83,7 @@ class VizNode(RaspvNode):
 
     def _use_world(self) -> bool:
         mode = self.params["fixed_frame"]
-        return mode == "world" or (mode == "auto" and len(self.poses) > 0)
+        return mode in ("map", "world") or (mode == "auto" and len(self.poses) > 0)
 
     def target_from_camera(self, header: Header) -> tuple[str, np.ndarray] | None:
         """(frame_id, · ← C) for camera-frame data stamped ``header``; None when the world frame
@@ -139,7 +140,7 @@ class VizNode(RaspvNode):
         frame = deserialize_message(raw, PhospheneFrame)
         if frame.map_id != m.map_id or len(frame.brightness) != len(m.display_x):
             return                                          # a frame of a map not received yet
-        header = Header(stamp=frame.source_stamp, frame_id=self.camera_frame or "camera")
+        header = Header(stamp=frame.source_stamp, frame_id=self.camera_frame or frames.CAMERA_OPTICAL)
         target = self.target_from_camera(header)
         if target is None:
             return

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # One-command install of RASPV-py into .venv: ROS 2 Jazzy wheels from PyPI (no system ROS),
-# the Python dependencies, raspv_msgs built with cmake into the venv, and the project itself
+# the Python dependencies, raspv_msgs and tf2_msgs built with cmake into the venv, and the project itself
 # (editable). Re-running it when nothing changed only compares two stamps.
 set -euo pipefail
 
@@ -42,7 +42,8 @@ hash_of() { cat "$@" | sha256sum | cut -c1-16; }
 # The editable install maps each top-level package (raspv_*) by name: a new package reinstalls.
 DEPS_HASH=$( { cat "$ROOT"/requirements/*.txt "$ROOT/pyproject.toml" "$ROOT/tools/install.sh";
                cd "$ROOT" && ls -d raspv_*/; } | sha256sum | cut -c1-16)
-MSGS_HASH=$(cd "$ROOT" && hash_of raspv_msgs/CMakeLists.txt raspv_msgs/package.xml raspv_msgs/msg/*.msg raspv_msgs/srv/*.srv)
+MSGS_HASH=$(cd "$ROOT" && hash_of raspv_msgs/CMakeLists.txt raspv_msgs/package.xml raspv_msgs/msg/*.msg raspv_msgs/srv/*.srv \
+                                  tf2_msgs/CMakeLists.txt tf2_msgs/package.xml tf2_msgs/msg/*.msg)
 if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$DEPS_HASH" ] && [ -f "$MSG_STAMP" ] && [ "$(cat "$MSG_STAMP")" = "$MSGS_HASH" ]; then
   say "up to date ($VENV)"
   exit 0
@@ -77,29 +78,32 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
   rm -f "$MSG_STAMP"   # new ROS wheels: rebuild the messages against them
 fi
 
-# --- raspv_msgs ------------------------------------------------------------------------------
+# --- message packages: tf2_msgs (not among PyPI's ROS wheels; upstream's TFMessage) and raspv_msgs ----
 if [ ! -f "$MSG_STAMP" ] || [ "$(cat "$MSG_STAMP")" != "$MSGS_HASH" ]; then
-  say "building raspv_msgs into the venv"
   # The wheels' exported CMake files name the wheel builder's Python (/opt/python/cp3XX-…);
   # point them at this interpreter's headers and numpy.
   PYINC=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
   NPINC=$("$VPY" -c 'import numpy; print(numpy.get_include())')
   grep -rlE "/opt/python/cp3[0-9]+-cp3[0-9]+" "$VENV/share" --include='*.cmake' 2>/dev/null |
     xargs -r sed -i -E "s#/opt/python/cp3[0-9]+-cp3[0-9]+/lib/python3\.[0-9]+/site-packages/numpy/_core/include#$NPINC#g; s#/opt/python/cp3[0-9]+-cp3[0-9]+/include/python3\.[0-9]+#$PYINC#g" || true
-  rm -rf "$BUILD/raspv_msgs" && mkdir -p "$BUILD/raspv_msgs"
-  if ! ( cd "$BUILD/raspv_msgs" &&
-         AMENT_PREFIX_PATH=$VENV CMAKE_PREFIX_PATH=$VENV PATH=$VENV/bin:$PATH \
-           cmake "$ROOT/raspv_msgs" -DCMAKE_INSTALL_PREFIX="$VENV" -DPython3_EXECUTABLE="$VPY" \
-                 -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release > cmake.log 2>&1 &&
-         PATH=$VENV/bin:$PATH make -j"$(nproc)" install > make.log 2>&1 ); then
-    tail -n 25 "$BUILD/raspv_msgs/cmake.log" "$BUILD/raspv_msgs/make.log" 2>/dev/null >&2 || true
-    die "building raspv_msgs failed; full logs in $BUILD/raspv_msgs/"
-  fi
-  "$VPY" -c 'from raspv_msgs.msg import PhospheneFrame' || die "raspv_msgs built but does not import"
+  for PKG in tf2_msgs raspv_msgs; do
+    say "building $PKG into the venv"
+    rm -rf "$BUILD/$PKG" && mkdir -p "$BUILD/$PKG"
+    if ! ( cd "$BUILD/$PKG" &&
+           AMENT_PREFIX_PATH=$VENV CMAKE_PREFIX_PATH=$VENV PATH=$VENV/bin:$PATH \
+             cmake "$ROOT/$PKG" -DCMAKE_INSTALL_PREFIX="$VENV" -DPython3_EXECUTABLE="$VPY" \
+                   -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release > cmake.log 2>&1 &&
+           PATH=$VENV/bin:$PATH make -j"$(nproc)" install > make.log 2>&1 ); then
+      tail -n 25 "$BUILD/$PKG/cmake.log" "$BUILD/$PKG/make.log" 2>/dev/null >&2 || true
+      die "building $PKG failed; full logs in $BUILD/$PKG/"
+    fi
+  done
+  "$VPY" -c 'from raspv_msgs.msg import PhospheneFrame; from tf2_msgs.msg import TFMessage' ||
+    die "raspv_msgs / tf2_msgs built but do not import"
   echo "$MSGS_HASH" > "$MSG_STAMP"
 fi
 
-"$VPY" -c 'import open3d, rclpy, raspv_msgs.msg, raspv_bringup.cli' ||
+"$VPY" -c 'import open3d, rclpy, raspv_msgs.msg, tf2_msgs.msg, raspv_bringup.cli' ||
   die "the environment does not import; delete $VENV and run make install again"
 echo "$DEPS_HASH" > "$STAMP"
 say "done: $VENV (run: $VENV/bin/raspv --help)"

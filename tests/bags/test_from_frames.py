@@ -60,7 +60,7 @@ def test_tum_sequence_associates_frames_and_interpolates_poses(tum_sequence, tmp
     np.testing.assert_array_equal(depth, expected)
     np.testing.assert_array_equal(color, read_color(frames.pairs[0].color))
     assert (info.fx, info.cy) == (517.3, 255.3)
-    assert pose.header.frame_id == "world" and pose.pose.position.z == pytest.approx(1.5)
+    assert pose.header.frame_id == "map" and pose.pose.position.z == pytest.approx(1.5)
 
 
 def test_flat_folder_pairs_take_timestamps_from_names(data_dir, tmp_path):

@@ -31,7 +31,7 @@ def test_source_graph_publishes_consistent_rgbd(graph, probe):
     d = depth_from_image(depth)
     assert d.shape == (120, 160) and np.nanmin(d) > 0.5
     assert camera_info_to_intrinsics(info).hfov_deg == pytest.approx(60.0)
-    assert pose.header.frame_id == "world" and pose.pose.position.z == pytest.approx(1.6)
+    assert pose.header.frame_id == "map" and pose.pose.position.z == pytest.approx(1.6)
     assert g.running()
 
 

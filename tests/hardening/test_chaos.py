@@ -116,7 +116,7 @@ class HeadTurner(threading.Thread):
             yaw = math.radians(HEAD_YAW_DEG) * math.sin(2 * math.pi * HEAD_SWEEP_HZ * (time.monotonic() - t0))
             pitch = math.radians(HEAD_PITCH_DEG)
             m = QuaternionStamped()
-            m.header.stamp, m.header.frame_id = self.probe.node.get_clock().now().to_msg(), "base"
+            m.header.stamp, m.header.frame_id = self.probe.node.get_clock().now().to_msg(), "base_link"
             cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
             m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w = -sy * sp, cy * sp, sy * cp, cy * cp
             self.pub.publish(m)

@@ -79,7 +79,7 @@ def test_frames_head_and_teleop_through_the_bridge(graph, probe):
     sent = [tuple(np.round(q, 6)) for _, q in report.heads_sent]
     heads.wait(1, timeout=30, predicate=lambda m: rounded(m) == sent[-1])     # the newest head pose arrives
     got = list(heads.messages)
-    assert all(m.header.frame_id == "base" for m in got)
+    assert all(m.header.frame_id == "base_link" for m in got)
     # /head/orientation is keep-last-1 (only the newest pose matters), so a loaded machine may skip
     # some (a CI run once delivered 1 of ~10 poses sent 20 ms apart, before the subscription was
     # awaited); what must hold is that only sent poses arrive, as a stream (here ~8 poses 100 ms
@@ -239,11 +239,11 @@ def test_navigation_guidance_reaches_the_client_as_audio_cues(graph, probe):
     while listener.is_alive():                    # standing at (1, 2) facing +y; the waypoint at (3, 4)
         stamp = probe.node.get_clock().now().to_msg()
         odom = Odometry()
-        odom.header.stamp, odom.header.frame_id = stamp, "world"
+        odom.header.stamp, odom.header.frame_id = stamp, "odom"
         odom.pose.pose = matrix_to_pose(planar_transform(1.0, 2.0, math.pi / 2))
         odom_pub.publish(odom)
         guide = NavGuidance(has_path=True, has_waypoint=True, feasible=True)
-        guide.header.stamp, guide.header.frame_id = stamp, "world"
+        guide.header.stamp, guide.header.frame_id = stamp, "map"
         guide.next_waypoint.x, guide.next_waypoint.y = 3.0, 4.0
         guide_pub.publish(guide)
         time.sleep(0.05)

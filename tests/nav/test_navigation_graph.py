@@ -69,7 +69,7 @@ def test_the_path_bends_around_a_crossing_person_and_comes_back(graph, probe):
     # they leave through the door of office A: the path returns to the shortest one (no phantom trail)
     i, back = next_matching(paths, i + 1, lambda m: len(m.poses) >= 2 and deviation(as_array(m)) < 0.1, 30)
     assert path_length(as_array(back)[:, :2]) == pytest.approx(shortest, rel=0.01)
-    assert back.header.frame_id == "world"
+    assert back.header.frame_id == "map"
     assert (back.header.stamp.sec, back.header.stamp.nanosec) > (bent.header.stamp.sec, bent.header.stamp.nanosec)
 
 
@@ -128,4 +128,4 @@ def test_the_navigation_graph_guides_a_scripted_avatar_to_the_goal(graph, probe,
         print(f"not the navigation's: {c.other_class} '{c.other_name}' walked into {how}")
     assert max(v for v, _ in hints) > 0.5                                           # it really walked
     [got] = guidance.wait(1, timeout=10, predicate=lambda m: m.has_path)      # the guidance was there on the way
-    assert got.has_waypoint and got.header.frame_id == "world"
+    assert got.has_waypoint and got.header.frame_id == "map"

@@ -66,7 +66,7 @@ def test_a_replayed_recording_navigates_on_the_building_map(graph, probe, record
         true_map = truth[nearest][:2, 3]
         true_odom = W_M[:2, :2] @ true_map + W_M[:2, 3]
         path = path_from_msg(msg)[:, :2]
-        assert msg.header.frame_id == "world"
+        assert msg.header.frame_id == "map"
         assert np.linalg.norm(path[0] - true_odom) < 0.25                   # starts where the camera is
         np.testing.assert_allclose(path[-1], W_M[:2, :2] @ GOAL + W_M[:2, 3], atol=1e-6)   # ends at the goal
         on_map = path @ W_M[:2, :2] + (-(W_M[:2, :2].T @ W_M[:2, 3]))     # back to the map frame

@@ -67,7 +67,7 @@ def test_planner_publishes_a_path_to_the_goal_around_obstacles(graph, probe, tmp
     combined = probe.wait_for_message(topics.NAV_COSTMAP, OccupancyGridMsg, timeout=60)
     assert (combined.info.width, combined.info.height) == (160, 120)
     guidance = probe.wait_for_message(topics.NAV_GUIDANCE, NavGuidance, timeout=30, predicate=lambda m: m.has_path)
-    assert guidance.has_waypoint and guidance.header.frame_id == "world"
+    assert guidance.has_waypoint and guidance.header.frame_id == "map"
 
 
 def test_without_a_path_an_empty_path_replaces_the_old_one(graph, probe, tmp_path):

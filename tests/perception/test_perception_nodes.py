@@ -88,7 +88,7 @@ def test_odometry_node_anchors_to_the_floor_and_follows_the_camera(graph, probe)
     # W: z up with the floor at z = 0 (the camera is 1.6 m up, looking 25° down, level sideways)
     for m in got:
         W = pose_to_matrix(m.pose)
-        assert m.header.frame_id == "world"
+        assert m.header.frame_id == "map"
         assert W[2, 3] == pytest.approx(1.6, abs=0.03)
         assert math.degrees(math.asin(-W[2, 2])) == pytest.approx(25.0, abs=0.7)
         assert abs(W[2, 0]) < 0.01

@@ -55,11 +55,11 @@ def test_sim_publishes_the_source_topics_and_ground_truth(graph, probe):
     assert list(info.k) == pytest.approx([f, 0, 79.5, 0, f, 59.5, 0, 0, 1])
     pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped)
     T = pose_to_matrix(pose.pose)
-    assert pose.header.frame_id == "world"
+    assert pose.header.frame_id == "map"
     assert T[:3, 3] == pytest.approx([0.7 + 0.08, 3.8, 1.6], abs=1e-6)   # spawn, eye 8 cm ahead of the neck
     assert T[:3, 2] == pytest.approx([1, 0, 0], abs=1e-6)                # looking along the corridor (+x)
     odom = probe.wait_for_message(topics.ODOM, Odometry)
-    assert (odom.header.frame_id, odom.child_frame_id) == ("world", "base")
+    assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_link")
     assert odom.pose.pose.position.x == pytest.approx(0.7)
     labels = probe.wait_for_message(topics.SIM_LABELS, Image)
     assert labels.encoding == "mono8"
@@ -85,7 +85,7 @@ def test_driving_into_a_wall_stops_the_avatar_publishes_a_collision_and_logs_it(
         time.sleep(0.1)
     event = collisions.wait(1, timeout=5)[0]
     assert (event.other_name, event.other_class, event.count) == ("box/east", "wall", 1)
-    assert event.header.frame_id == "world" and event.speed == pytest.approx(1.5)
+    assert event.header.frame_id == "map" and event.speed == pytest.approx(1.5)
     assert event.normal.x == pytest.approx(-1.0, abs=1e-3)
     for _ in range(10):              # keep pushing: the avatar stays at the wall, no new event
         pub.publish(forward)
@@ -109,7 +109,7 @@ def test_head_orientation_turns_the_camera_pose_only(graph, probe):
     pub = probe.publisher(topics.HEAD_ORIENTATION, QuaternionStamped, wait_for_subscribers=1)
     x, y, z, w = head_quaternion(0.0, math.radians(20), math.radians(45))
     msg = QuaternionStamped(quaternion=Quaternion(x=x, y=y, z=z, w=w))
-    msg.header.frame_id = "base"
+    msg.header.frame_id = "base_link"
 
     def turned(m: PoseStamped) -> bool:
         pub.publish(msg)
@@ -186,7 +186,7 @@ def test_teleop_drives_from_keys_in_a_terminal_and_restores_it(probe, ros_domain
         head = probe.wait_for_message(topics.HEAD_ORIENTATION, QuaternionStamped,
                                       predicate=lambda m: m.quaternion.z > 0.01, timeout=30)
         assert 2 * math.degrees(math.asin(head.quaternion.z)) == pytest.approx(10.0, abs=1e-6)
-        assert head.header.frame_id == "base"
+        assert head.header.frame_id == "base_link"
         os.write(fd, b"\x03")                          # Ctrl-C
         _, status = os.waitpid(pid, 0)
         pid = 0

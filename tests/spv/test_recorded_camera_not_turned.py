@@ -36,7 +36,7 @@ def spv_reads_the_head(probe) -> bool:
 def head_msg(probe, yaw_deg):
     m = QuaternionStamped()
     m.header.stamp = probe.node.get_clock().now().to_msg()
-    m.header.frame_id = "base"
+    m.header.frame_id = "base_link"
     m.quaternion.z, m.quaternion.w = math.sin(math.radians(yaw_deg) / 2), math.cos(math.radians(yaw_deg) / 2)
     return m
 

@@ -30,7 +30,7 @@ def ramp() -> np.ndarray:
 def head_msg(probe, yaw_deg: float) -> QuaternionStamped:
     m = QuaternionStamped()
     m.header.stamp = probe.node.get_clock().now().to_msg()
-    m.header.frame_id = "base"
+    m.header.frame_id = "base_link"
     m.quaternion.z, m.quaternion.w = math.sin(math.radians(yaw_deg) / 2), math.cos(math.radians(yaw_deg) / 2)
     return m
 
@@ -57,9 +57,9 @@ class Source:
         T[:3, :3] = OPTICAL_IN_HEAD
         T[:3, 3] = (0.08, 0.0, 1.6)
         pose = PoseStamped(pose=matrix_to_pose(T))
-        pose.header.stamp, pose.header.frame_id = stamp, "world"
-        odom = Odometry(child_frame_id="base")
-        odom.header.stamp, odom.header.frame_id = stamp, "world"
+        pose.header.stamp, pose.header.frame_id = stamp, "map"
+        odom = Odometry(child_frame_id="base_link")
+        odom.header.stamp, odom.header.frame_id = stamp, "odom"
         odom.pose.pose.orientation.w = 1.0
         self.info.publish(info)
         self.color.publish(img)

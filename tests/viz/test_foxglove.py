@@ -71,7 +71,7 @@ def test_foxglove_client_sees_the_graph_and_sets_a_parameter(graph, probe):
         # depth frame's may come first, and that cloud is published without colour)
         cloud = probe.wait_for_message(topics.VIZ_CLOUD, PointCloud2, timeout=60,
                                        predicate=lambda c: [f.name for f in c.fields][-1] == "rgb")
-        assert cloud.header.frame_id == "world" and cloud.width > 100
+        assert cloud.header.frame_id == "map" and cloud.width > 100
         spheres = probe.wait_for_message(topics.VIZ_PHOSPHENES, MarkerArray, timeout=60,
                                          predicate=lambda m: len(m.markers) == 2)
         assert spheres.markers[1].ns == "phosphenes" and len(spheres.markers[1].points) > 100

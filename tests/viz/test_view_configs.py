@@ -32,18 +32,19 @@ def test_foxglove_layout_is_up_to_date_and_names_real_topics():
     images = {p["config"]["imageMode"]["imageTopic"] for p in panels if p["panelType"] == "Image"}
     assert images == {topics.SPV_IMAGE, topics.COLOR}
     [scene] = [p for p in panels if p["panelType"] == "ThreeDee"]
-    assert scene["config"]["followTf"] == "world"
-    assert set(scene["config"]["topics"]) == VIZ_TOPICS | {topics.NAV_COSTMAP}
+    assert (scene["config"]["followTf"], scene["config"]["fixedFrame"]) == ("base_link", "map")
+    assert set(scene["config"]["topics"]) == VIZ_TOPICS | {topics.NAV_COSTMAP, topics.SLAM_MARKERS}
     plotted = {s["value"].split(".")[0] for p in panels if p["panelType"] == "Plot" for s in p["config"]["paths"]}
     assert plotted == {LATENCY, SYSINFO}
     assert (images | set(scene["config"]["topics"])) <= GRAPH_TOPICS
 
 
-def test_rviz_config_shows_every_viz_topic_in_the_world_frame():
+def test_rviz_config_shows_every_viz_topic_and_the_tf_tree_in_the_map_frame():
     doc = yaml.safe_load((LAYOUT_FILE.parent / "raspv.rviz").read_text())
     manager = doc["Visualization Manager"]
-    assert manager["Global Options"]["Fixed Frame"] == "world"
+    assert manager["Global Options"]["Fixed Frame"] == "map"
+    assert "rviz_default_plugins/TF" in {d["Class"] for d in manager["Displays"]}
     shown = {d["Topic"]["Value"]: d["Class"] for d in manager["Displays"] if "Topic" in d}
     assert VIZ_TOPICS <= set(shown) and set(shown) <= GRAPH_TOPICS
     assert shown[topics.VIZ_CLOUD] == "rviz_default_plugins/PointCloud2"
-    assert all(shown[t] == "rviz_default_plugins/MarkerArray" for t in VIZ_TOPICS - {topics.VIZ_CLOUD})
+    assert all(shown[t] == "rviz_default_plugins/MarkerArray" for t in VIZ_TOPICS - {topics.VIZ_CLOUD} | {topics.SLAM_MARKERS})
