@@ -142,13 +142,22 @@ def intrinsics_to_camera_info(intr: CameraIntrinsics, header: Header | None = No
     return msg
 
 
+def _rigid(q, p) -> np.ndarray:
+    """4×4 from a quaternion message (x, y, z, w) and a point or vector message."""
+    T = np.eye(4)
+    T[:3, :3] = quaternion_to_matrix(q.x, q.y, q.z, q.w)
+    T[:3, 3] = (p.x, p.y, p.z)
+    return T
+
+
 def pose_to_matrix(pose: Pose) -> np.ndarray:
     """``geometry_msgs/Pose`` (child expressed in parent) → 4×4 matrix parent ← child."""
-    T = np.eye(4)
-    q = pose.orientation
-    T[:3, :3] = quaternion_to_matrix(q.x, q.y, q.z, q.w)
-    T[:3, 3] = (pose.position.x, pose.position.y, pose.position.z)
-    return T
+    return _rigid(pose.orientation, pose.position)
+
+
+def transform_to_matrix(t) -> np.ndarray:
+    """``geometry_msgs/Transform`` → 4×4 matrix parent ← child."""
+    return _rigid(t.rotation, t.translation)
 
 
 def matrix_to_pose(T: np.ndarray) -> Pose:

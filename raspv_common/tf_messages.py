@@ -15,9 +15,9 @@ from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 
 from raspv_common import topics
-from raspv_common.conversions import stamp_to_seconds
+from raspv_common.conversions import stamp_to_seconds, transform_to_matrix
 from raspv_common.qos import TF_QOS, TF_STATIC_LISTENER_QOS, TF_STATIC_QOS
-from raspv_common.rotations import matrix_to_quaternion, quaternion_to_matrix
+from raspv_common.rotations import matrix_to_quaternion
 from raspv_common.transform_tree import TransformTree
 
 Edge = tuple[str, str, np.ndarray]          # (parent, child, 4×4 parent ← child)
@@ -30,14 +30,6 @@ def transform_msg(parent: str, child: str, matrix: np.ndarray, stamp: Time) -> T
     return TransformStamped(header=Header(stamp=stamp, frame_id=parent), child_frame_id=child,
                             transform=Transform(translation=Vector3(x=x, y=y, z=z),
                                                 rotation=Quaternion(x=qx, y=qy, z=qz, w=qw)))
-
-
-def transform_to_matrix(t: Transform) -> np.ndarray:
-    T = np.eye(4)
-    q = t.rotation
-    T[:3, :3] = quaternion_to_matrix(q.x, q.y, q.z, q.w)
-    T[:3, 3] = (t.translation.x, t.translation.y, t.translation.z)
-    return T
 
 
 class TfBroadcaster:

@@ -7,7 +7,6 @@ from __future__ import annotations
 import threading
 import time
 
-import numpy as np
 import pytest
 import yaml
 from geometry_msgs.msg import PoseStamped
@@ -17,10 +16,9 @@ from raspv_bags.known_topics import KNOWN_TOPICS
 from raspv_bringup.graph import CONFIG_DIR
 from raspv_bringup.testing import Collector
 from raspv_common import frames, topics
-from raspv_common.conversions import pose_to_matrix, stamp_to_seconds
+from raspv_common.conversions import pose_to_matrix, stamp_to_seconds, transform_to_matrix
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS, TF_QOS, TF_STATIC_LISTENER_QOS
 from raspv_common.ros_introspection import message_class
-from raspv_common.tf_messages import transform_to_matrix
 from raspv_common.transform_tree import TransformTree
 from tests.tf.test_tf2_msgs import UPSTREAM
 
