@@ -4,9 +4,11 @@ import shutil
 import numpy as np
 import pytest
 from sensor_msgs.msg import CameraInfo, Image, Imu
+from tf2_msgs.msg import TFMessage
 
-from raspv_common import topics
-from raspv_common.conversions import camera_info_to_intrinsics, image_to_array, stamp_to_seconds
+from raspv_common import frames, topics
+from raspv_common.conversions import camera_info_to_intrinsics, image_to_array, stamp_to_seconds, transform_to_matrix
+from raspv_common.qos import TF_STATIC_LISTENER_QOS
 
 from .conftest import GRAVITY_C, RATE, needs_openni2
 
@@ -86,9 +88,16 @@ def test_openni2_recording_in_millimetres(graph, probe, openni2_recording):
 
 
 def test_depthai_recording(graph, probe, depthai_recording):
+    """… and the camera's mounting on /tf_static: base_link → camera_link → its optical frame."""
     rec = depthai_recording
-    graph(camera_graph({"file": str(rec.path)}))
+    graph(camera_graph({"file": str(rec.path), "mounting_xyz": [0.1, 0.0, 1.2], "mounting_rpy": [0.0, 30.0, 0.0]}))
     got = collect(probe, 8)
+    static = probe.wait_for_message(topics.TF_STATIC, TFMessage, qos=TF_STATIC_LISTENER_QOS, timeout=30)
+    edges = {(t.header.frame_id, t.child_frame_id): transform_to_matrix(t.transform) for t in static.transforms}
+    assert set(edges) == {(frames.BASE_LINK, frames.CAMERA_LINK), (frames.CAMERA_LINK, frames.CAMERA_OPTICAL)}
+    assert edges[frames.BASE_LINK, frames.CAMERA_LINK] == pytest.approx(
+        frames.mounting_transform([0.1, 0.0, 1.2], [0.0, 30.0, 0.0]))
+    assert edges[frames.CAMERA_LINK, frames.CAMERA_OPTICAL] == pytest.approx(frames.LINK_FROM_OPTICAL)
     depths = {f.depth.tobytes(): i for i, f in enumerate(rec.frames)}
     # colour and depth of one frame share a stamp; the two subscriptions may start a frame apart
     colors = {(c.header.stamp.sec, c.header.stamp.nanosec): c for c in got[topics.COLOR]}
