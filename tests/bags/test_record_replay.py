@@ -98,6 +98,11 @@ def test_topics_appearing_later_are_recorded_and_ctrl_c_closes_a_complete_bag(gr
     with BagReader(tmp_path / "sqlite") as r:
         assert r.complete and r.storage == "sqlite3" and r.notes == []
         assert set(CAMERA) <= set(r.topics) and r.topics[T.COLOR].count >= 5
+        # the graph's tf: the source's moving transform and its fixed ones, latched as published
+        assert {T.TF, T.TF_STATIC} <= set(r.topics) and r.topics[T.TF_STATIC].qos[0].transient_local
+        static = [r.decode(m) for m in r.messages([T.TF_STATIC])]
+        assert {(t.header.frame_id, t.child_frame_id) for t in static[0].transforms} == {
+            ("map", "odom"), ("base_link", "camera_link"), ("camera_link", "camera_color_optical_frame")}
 
 
 def test_a_killed_recorder_leaves_a_readable_and_repairable_bag(graph, probe, tmp_path):
