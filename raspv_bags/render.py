@@ -208,7 +208,7 @@ class BagFrameSource:
         topics += [t for t, w in ((s.color_topic, self.want_color), (s.depth_topic, self.want_depth),
                                   (s.pose_topic, self.want_pose), (s.path_topic, self.want_path)) if w]
         if self.fixed_intrinsics is None:
-            self._first_camera_info()
+            self.first_camera_info()
         tol = int(s.pair_tolerance_s * 1e9)
         colors: deque[tuple[int, BagMessage]] = deque(maxlen=10)
         depths: deque[tuple[int, BagMessage]] = deque(maxlen=10)
@@ -263,7 +263,7 @@ class BagFrameSource:
         self.nav_path = np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z] for p in path.poses],
                                  dtype=float).reshape(-1, 3)
 
-    def _first_camera_info(self) -> None:
+    def first_camera_info(self) -> None:
         for msg in self.reader.messages([self.s.info_topic]):
             info = self._decode(msg)
             if info is None:

@@ -43,9 +43,9 @@ PYTHON_DEPS: dict[str, str | None] = {
     "matplotlib": "python3-matplotlib", "psutil": "python3-psutil", "websockets": "python3-websockets",
     "open3d": "python3-open3d-pip", "pybullet": "python3-pybullet-pip", "pybullet_data": "python3-pybullet-pip",
     "pybullet_utils": "python3-pybullet-pip", "onnxruntime": "python3-onnxruntime-pip",
-    "rosbags": None, "foxglove": None, "lz4": None, "compression": None, "backports": None, "elftools": None,
+    "rosbags": None, "foxglove": None, "gtsam": None, "evo": None, "lz4": None, "compression": None, "backports": None, "elftools": None,
 }
-PIP_NAMES = {"rosbags": "rosbags", "foxglove": "foxglove-sdk", "elftools": "pyelftools", "lz4": "rosbags", "compression": "rosbags",
+PIP_NAMES = {"rosbags": "rosbags", "gtsam": "gtsam", "evo": "evo", "foxglove": "foxglove-sdk", "elftools": "pyelftools", "lz4": "rosbags", "compression": "rosbags",
              "backports": "rosbags"}
 # Imported only when a user asks for them (camera SDKs, torch models, Ray sweeps, image metrics):
 # optional extras of pyproject.toml, not package dependencies.
@@ -76,6 +76,7 @@ DESCRIPTIONS = {
     "raspv_nav": "RASPV-py navigation assistant: costmaps from depth, A* global planner, DWA, guidance",
     "raspv_perception": "RASPV-py scene perception: floor, planes, obstacles, free floor, stairs, segmentation, odometry",
     "raspv_sim": "RASPV-py virtual world on PyBullet: world files, the BlindBot avatar, people, RGB-D camera",
+    "raspv_slam": "RASPV-py RGB-D SLAM: keyframe tracking, loop closure with GTSAM, saved maps, localisation mode",
     "raspv_spv": "RASPV-py phosphene simulator: phosphene maps, sprites, temporal model, representation modes",
     "raspv_viz": "RASPV-py live views: RViz markers and point clouds of what perception found, a Foxglove server",
 }

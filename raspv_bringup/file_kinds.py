@@ -178,6 +178,8 @@ FILE_KINDS: dict[str, FileKind] = {
                            "gaze trace CSV: t,x,y,z,valid or t,yaw_deg,pitch_deg,valid"),
     "camera_recording": FileKind("camera_recording", "raspv_camera.drivers:check_recording",
                                  "RGB-D camera SDK recording", with_params=True),
+    "slam_map": FileKind("slam_map", "raspv_slam.map_store:check_map",
+                         "saved SLAM map: a name in the maps directory ($RASPV_MAPS_DIR) or a map folder"),
 }
 
 

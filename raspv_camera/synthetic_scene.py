@@ -49,6 +49,8 @@ class SyntheticRoom:
     pitch_down_deg: float = 15.0
     walk_radius: float = 1.6            # the camera walks a circle of this radius [m]
     walk_speed: float = 0.4             # [m/s]
+    texture_cell: float = 0.0           # side of random grey blocks painted on every surface [m] (0: plain);
+                                        # what feature-based tracking (ORB) needs to find corners
     boxes: list[Box] = field(default_factory=lambda: [
         Box((2.3, -0.6, 0.0), (3.1, 0.6, 0.75), (0.80, 0.25, 0.20)),    # low cabinet
         Box((-0.4, 2.0, 0.0), (0.4, 2.6, 1.10), (0.25, 0.45, 0.80)),    # tall box
@@ -111,6 +113,13 @@ class SyntheticRoom:
                 shade = np.array([0.8, 0.65, 1.0])[face][:, None] * np.array(box.color)
                 t_best = np.where(hit, tmin, t_best)
                 color = np.where(hit[:, None], shade, color)
+        if self.texture_cell > 0:
+            hit = np.isfinite(t_best)
+            p = o + (t_best[hit, None] - 1e-3) * d[hit]         # 1 mm in front of the surface: a stable cell
+            cell = np.floor(p / self.texture_cell).astype(np.int64)
+            h = (cell[:, 0] * 73856093) ^ (cell[:, 1] * 19349663) ^ (cell[:, 2] * 83492791)
+            h = ((h ^ (h >> 13)) * 1274126177) & 0xFFFFFFFF          # mix the bits, keep 32 of them
+            color[hit] *= (0.35 + 0.65 * (((h >> 16) & 0xFFFF) / 65535.0))[:, None]
         depth = t_best.reshape(intr.height, intr.width).astype(np.float32)  # t along z=1 rays = z_C
         depth[~np.isfinite(depth)] = np.nan
         rgb = (np.clip(color, 0, 1) * 255).astype(np.uint8).reshape(intr.height, intr.width, 3)

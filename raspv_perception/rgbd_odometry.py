@@ -72,11 +72,22 @@ class OdometryStep:
     relative: np.ndarray
 
 
-class RGBDOdometry:
-    """Frame-to-frame RGB-D odometry. Feed frames in order with :meth:`process`."""
+@dataclass(frozen=True)
+class DenseImage:
+    """An RGB-D frame prepared for :class:`DenseRegistration` (resized, depth clipped)."""
+
+    image: object                 # open3d.t.geometry.RGBDImage, intensities in [0, 1], depth metres (0: none)
+    intrinsics: object            # open3d.core.Tensor 3×3 of the resized image
+    size: tuple[int, int]         # (width, height) of the full-size frame it came from
+
+
+class DenseRegistration:
+    """Dense RGB-D registration of two frames (Open3D tensor multi-scale odometry, hybrid
+    photometric + geometric term, robust depth weights) — the registration :class:`RGBDOdometry`
+    chains, and the refinement step of ``raspv_slam``'s tracker."""
 
     def __init__(self, config: OdometryConfig | None = None) -> None:
-        import open3d as o3d        # heavy: imported when odometry is used
+        import open3d as o3d        # heavy: imported when registration is used
 
         self._o3d = o3d
         self.config = config or OdometryConfig()
@@ -93,23 +104,9 @@ class RGBDOdometry:
         self._loss = odometry.OdometryLossParams(depth_outlier_trunc=self.config.max_depth_difference,
                                                  depth_huber_delta=min(DEPTH_HUBER_M, 0.5 * self.config.max_depth_difference),
                                                  intensity_huber_delta=INTENSITY_HUBER)
-        self.reset()
 
-    def reset(self) -> None:
-        self._previous = None
-        self._previous_size: tuple[int, int] | None = None
-        self.c0_from_camera = np.eye(4)
-        self.world_from_c0 = LEVEL_WORLD_FROM_CAMERA.copy()
-        self.anchored = False
-        self.frames = 0
-        self.failures = 0
-        self.last_overlap = math.nan       # matched fraction of the last registration
-
-    @property
-    def world_from_camera(self) -> np.ndarray:
-        return self.world_from_c0 @ self.c0_from_camera
-
-    def _rgbd(self, rgb: np.ndarray, depth: np.ndarray, K: CameraIntrinsics):
+    def prepare(self, rgb: np.ndarray, depth: np.ndarray, K: CameraIntrinsics) -> DenseImage:
+        """Colour (H, W, 3) uint8 and depth (H, W) float metres (NaN: no reading) → a frame to register."""
         o3d = self._o3d
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
             raise ValueError(f"colour must be an (H, W, 3) uint8 RGB image, got {rgb.dtype} {rgb.shape}")
@@ -118,6 +115,7 @@ class RGBDOdometry:
         if rgb.shape[:2] != depth.shape or depth.shape != (K.height, K.width):
             raise ValueError(f"colour {rgb.shape[1]}x{rgb.shape[0]}, depth {depth.shape[1]}x{depth.shape[0]} and "
                              f"camera {K.width}x{K.height} must have the same size")
+        size = (K.width, K.height)
         s = self.config.scale
         if s != 1.0:
             w, h = max(8, int(round(K.width * s))), max(8, int(round(K.height * s)))
@@ -130,56 +128,103 @@ class RGBDOdometry:
         image = o3d.t.geometry.RGBDImage(o3d.t.geometry.Image(o3d.core.Tensor(color)),
                                          o3d.t.geometry.Image(o3d.core.Tensor(d)))
         intr = o3d.core.Tensor(np.array([[K.fx, 0.0, K.cx], [0.0, K.fy, K.cy], [0.0, 0.0, 1.0]]), o3d.core.float64)
-        return image, intr
+        return DenseImage(image, intr, size)
+
+    def register(self, source: DenseImage, target: DenseImage, target_from_source: np.ndarray | None = None,
+                 geometric_only: bool = False) -> tuple[np.ndarray, float]:
+        """(target ← source motion 4×4, overlap: the matched fraction of the source's depth
+        pixels), starting from ``target_from_source`` (identity by default); ``geometric_only``:
+        depth alone (point-to-plane), for frames without colour. A registration that finds no
+        correspondence gives (identity, 0.0); a non-finite result overlap 0."""
+        o3d = self._o3d
+        if source.size != target.size:
+            raise ValueError(f"cannot register a {source.size[0]}x{source.size[1]} frame to a "
+                             f"{target.size[0]}x{target.size[1]} one")
+        init = np.eye(4) if target_from_source is None else np.asarray(target_from_source, dtype=np.float64)
+        methods = o3d.t.pipelines.odometry.Method
+        method = methods.PointToPlane if geometric_only else methods.Hybrid
+        try:
+            result = o3d.t.pipelines.odometry.rgbd_odometry_multi_scale(
+                source.image, target.image, source.intrinsics, o3d.core.Tensor(init), 1.0, self.config.max_depth,
+                self._criteria, method, self._loss)
+        except RuntimeError:                     # e.g. no correspondences at all
+            return np.eye(4), 0.0
+        T = result.transformation.numpy()
+        if not np.isfinite(T).all():
+            return np.eye(4), 0.0
+        return T, float(result.fitness)
+
+
+def rotation_angle_deg(T: np.ndarray) -> float:
+    """Angle of the rotation part of a 4×4 (or 3×3) transform [deg]."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(np.asarray(T)[:3, :3]) - 1) / 2))))
+
+
+def world_from_floor_plane(floor_plane: np.ndarray, c0_from_floor_camera: np.ndarray | None = None) -> np.ndarray:
+    """W ← C0 that makes W gravity-aligned from a floor plane (a, b, c, d), normal up, seen in
+    the camera frame whose pose relative to C0 is ``c0_from_floor_camera`` (default: C0 itself):
+    z along the floor normal, z = 0 on the floor below C0's centre, x along C0's optical axis
+    projected on the floor, y = z × x."""
+    T = np.eye(4) if c0_from_floor_camera is None else np.asarray(c0_from_floor_camera, dtype=np.float64)
+    n = T[:3, :3] @ np.asarray(floor_plane[:3], dtype=np.float64)
+    norm = np.linalg.norm(n)
+    if not np.isfinite(norm) or norm == 0:
+        raise ValueError("floor plane normal must be a finite non-zero vector")
+    n /= norm
+    d = float(floor_plane[3]) / norm - float(n @ T[:3, 3])           # plane n·p + d = 0 in C0
+    x = np.array([0.0, 0.0, 1.0]) - n[2] * n                         # C0's optical axis on the floor
+    if np.linalg.norm(x) < 1e-6:
+        x = np.array([0.0, -1.0, 0.0]) - n[1] * n
+    x /= np.linalg.norm(x)
+    y = np.cross(n, x)
+    W = np.eye(4)
+    W[:3, :3] = np.stack([x, y, n])      # rows: W axes in C0 → W ← C0 rotation
+    W[:3, 3] = (0.0, 0.0, d)             # C0's centre is d above the floor, origin right below it
+    return W
+
+
+class RGBDOdometry:
+    """Frame-to-frame RGB-D odometry. Feed frames in order with :meth:`process`."""
+
+    def __init__(self, config: OdometryConfig | None = None) -> None:
+        self.registration = DenseRegistration(config)
+        self.config = self.registration.config
+        self.reset()
+
+    def reset(self) -> None:
+        self._previous: DenseImage | None = None
+        self.c0_from_camera = np.eye(4)
+        self.world_from_c0 = LEVEL_WORLD_FROM_CAMERA.copy()
+        self.anchored = False
+        self.frames = 0
+        self.failures = 0
+        self.last_overlap = math.nan       # matched fraction of the last registration
+
+    @property
+    def world_from_camera(self) -> np.ndarray:
+        return self.world_from_c0 @ self.c0_from_camera
 
     def process(self, rgb: np.ndarray, depth: np.ndarray, intrinsics: CameraIntrinsics) -> OdometryStep:
         """Register this frame (RGB uint8, depth metres with NaN holes) to the previous one."""
-        image, intr = self._rgbd(rgb, depth, intrinsics)
-        size = (intrinsics.width, intrinsics.height)
+        image = self.registration.prepare(rgb, depth, intrinsics)
         relative = np.eye(4)
         tracked = True
-        if self._previous is not None and self._previous_size == size:
-            o3d = self._o3d
-            try:
-                result = o3d.t.pipelines.odometry.rgbd_odometry_multi_scale(
-                    image, self._previous, intr, o3d.core.Tensor(np.eye(4)), 1.0, self.config.max_depth,
-                    self._criteria, o3d.t.pipelines.odometry.Method.Hybrid, self._loss)
-                T = result.transformation.numpy()
-                overlap = float(result.fitness)      # matched fraction of the frame's depth pixels
-            except RuntimeError:                     # e.g. no correspondences at all
-                T, overlap = np.eye(4), 0.0
-            ok = bool(np.isfinite(T).all())
-            angle = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(T[:3, :3]) - 1) / 2)))) if ok else math.inf
+        if self._previous is not None and self._previous.size == image.size:
+            T, overlap = self.registration.register(image, self._previous)
             self.last_overlap = overlap
-            if (ok and overlap >= self.config.min_overlap and np.linalg.norm(T[:3, 3]) <= self.config.max_translation
-                    and angle <= self.config.max_rotation_deg):
+            if (overlap >= self.config.min_overlap and np.linalg.norm(T[:3, 3]) <= self.config.max_translation
+                    and rotation_angle_deg(T) <= self.config.max_rotation_deg):
                 relative = T                 # previous ← current
                 self.c0_from_camera = self.c0_from_camera @ T
             else:
                 tracked = False
                 self.failures += 1
-        self._previous, self._previous_size = image, size
+        self._previous = image
         self.frames += 1
         return OdometryStep(tracked, self.world_from_camera, relative)
 
     def anchor_to_floor(self, floor_plane: np.ndarray, c0_from_floor_camera: np.ndarray | None = None) -> None:
         """Make W gravity-aligned from a floor plane (a, b, c, d), normal up, seen in the camera
         frame whose pose relative to C0 is ``c0_from_floor_camera`` (default: C0 itself)."""
-        T = np.eye(4) if c0_from_floor_camera is None else np.asarray(c0_from_floor_camera, dtype=np.float64)
-        n = T[:3, :3] @ np.asarray(floor_plane[:3], dtype=np.float64)
-        norm = np.linalg.norm(n)
-        if not np.isfinite(norm) or norm == 0:
-            raise ValueError("floor plane normal must be a finite non-zero vector")
-        n /= norm
-        d = float(floor_plane[3]) / norm - float(n @ T[:3, 3])           # plane n·p + d = 0 in C0
-        x = np.array([0.0, 0.0, 1.0]) - n[2] * n                         # C0's optical axis on the floor
-        if np.linalg.norm(x) < 1e-6:
-            x = np.array([0.0, -1.0, 0.0]) - n[1] * n
-        x /= np.linalg.norm(x)
-        y = np.cross(n, x)
-        R = np.stack([x, y, n])              # rows: W axes in C0 → W ← C0 rotation
-        W = np.eye(4)
-        W[:3, :3] = R
-        W[:3, 3] = (0.0, 0.0, d)             # C0's centre is d above the floor, origin right below it
-        self.world_from_c0 = W
+        self.world_from_c0 = world_from_floor_plane(floor_plane, c0_from_floor_camera)
         self.anchored = True

@@ -11,7 +11,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 CORES = ["raspv_common", "raspv_spv", "raspv_perception", "raspv_nav", "raspv_sim", "raspv_camera", "raspv_bags",
-         "raspv_hmd", "raspv_viz"]
+         "raspv_hmd", "raspv_viz", "raspv_slam"]
 ABOVE_THE_CORES = {"raspv_bringup", "raspv_experiments", "raspv_bench"}
 
 

@@ -1,0 +1,112 @@
+"""ORB features with depth, and matching them (no ROS).
+
+ORB (Rublee et al. 2011) as ORB-SLAM2 uses it on RGB-D frames: 1000 keypoints over an 8-level
+pyramid (scale 1.2); where the FAST threshold finds too few (motion blur), a second pass with
+ORB-SLAM's lower threshold (7). Each keypoint gets the depth under it (nearest pixel of the
+registered depth image) and so a 3-D point in the camera frame C (x right, y down, z forward,
+metres), NaN where there is no reading in [min_depth, max_depth].
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_slam.config import SlamConfig
+
+LOW_FAST_THRESHOLD = 7          # ORB-SLAM2's minThFAST, for frames where the default finds too few
+
+
+@dataclass
+class Features:
+    """Keypoints (N, 2) px, descriptors (N, 32) uint8, 3-D points (N, 3) in C (NaN: no depth),
+    pyramid octaves (N,)."""
+
+    keypoints: np.ndarray
+    descriptors: np.ndarray
+    points: np.ndarray
+    octaves: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.keypoints)
+
+    @property
+    def with_depth(self) -> np.ndarray:
+        """Indices of the features that have a 3-D point."""
+        return np.flatnonzero(np.isfinite(self.points[:, 2]))
+
+    @classmethod
+    def empty(cls) -> "Features":
+        return cls(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros((0, 3), np.float32),
+                   np.zeros(0, np.int8))
+
+
+class FeatureExtractor:
+    """ORB keypoints and descriptors of a grey image, lifted to 3-D with the depth image."""
+
+    def __init__(self, intrinsics: CameraIntrinsics, config: SlamConfig) -> None:
+        self.intrinsics = intrinsics
+        self.config = config
+        self._orb = cv2.ORB_create(nfeatures=config.features, scaleFactor=config.scale_factor, nlevels=config.levels,
+                                   fastThreshold=config.fast_threshold, edgeThreshold=19, patchSize=31)
+        self._orb_low = cv2.ORB_create(nfeatures=config.features, scaleFactor=config.scale_factor,
+                                       nlevels=config.levels, fastThreshold=LOW_FAST_THRESHOLD, edgeThreshold=19,
+                                       patchSize=31)
+
+    def extract(self, gray: np.ndarray, depth: np.ndarray | None) -> Features:
+        keypoints, descriptors = self._orb.detectAndCompute(gray, None)
+        if len(keypoints) < self.config.features // 2:
+            keypoints, descriptors = self._orb_low.detectAndCompute(gray, None)
+        if descriptors is None or not keypoints:
+            return Features.empty()
+        uv = np.array([k.pt for k in keypoints], dtype=np.float32)
+        octaves = np.array([k.octave for k in keypoints], dtype=np.int8)
+        return Features(uv, descriptors, self.lift(uv, depth), octaves)
+
+    def lift(self, uv: np.ndarray, depth: np.ndarray | None) -> np.ndarray:
+        """3-D points in C under pixels ``uv`` (N, 2); NaN where the depth has no usable reading."""
+        K = self.intrinsics
+        points = np.full((len(uv), 3), np.nan, dtype=np.float32)
+        if depth is None or not len(uv):
+            return points
+        col = np.clip(np.rint(uv[:, 0]).astype(int), 0, K.width - 1)
+        row = np.clip(np.rint(uv[:, 1]).astype(int), 0, K.height - 1)
+        z = depth[row, col]
+        ok = np.isfinite(z) & (z >= self.config.min_depth) & (z <= self.config.max_depth)
+        z = z[ok]
+        points[ok, 0] = (uv[ok, 0] - K.cx) / K.fx * z
+        points[ok, 1] = (uv[ok, 1] - K.cy) / K.fy * z
+        points[ok, 2] = z
+        return points
+
+
+class DescriptorMatcher:
+    """Brute-force Hamming matching with Lowe's ratio test and an absolute distance bound."""
+
+    def __init__(self, config: SlamConfig) -> None:
+        self.ratio = config.match_ratio
+        self.max_distance = config.max_hamming
+        self._bf = cv2.BFMatcher(cv2.NORM_HAMMING)
+
+    def match(self, query: np.ndarray, train: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Index pairs (query indices, train indices) of the unambiguous matches, each train
+        descriptor used at most once (the closest query wins)."""
+        if len(query) < 2 or len(train) < 2:
+            return np.zeros(0, int), np.zeros(0, int)
+        pairs = self._bf.knnMatch(query, train, k=2)
+        q, t, d = [], [], []
+        for m in pairs:
+            if len(m) == 2 and m[0].distance <= self.max_distance and m[0].distance < self.ratio * m[1].distance:
+                q.append(m[0].queryIdx)
+                t.append(m[0].trainIdx)
+                d.append(m[0].distance)
+        if not q:
+            return np.zeros(0, int), np.zeros(0, int)
+        q, t, d = np.array(q), np.array(t), np.array(d)
+        order = np.lexsort((d, t))                   # per train index, the closest first
+        first = np.ones(len(order), bool)
+        first[1:] = t[order][1:] != t[order][:-1]
+        keep = order[first]
+        return q[keep], t[keep]

@@ -1,0 +1,112 @@
+"""One camera frame prepared for SLAM: rectified, ORB features with depth, a small copy for dense
+registration (no ROS).
+
+Input: colour (H, W, 3) uint8 RGB and depth (H, W) float32 metres registered to the colour
+(NaN: no reading); either may be missing. With lens distortion coefficients in the config
+both images are rectified first (precomputed maps; depth by nearest neighbour) so that every
+later step sees a pinhole camera.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_perception.rgbd_odometry import DenseImage, DenseRegistration, OdometryConfig
+from raspv_slam.config import SlamConfig
+from raspv_slam.features import FeatureExtractor, Features
+
+PROBE_STRIDE = 8            # px of the small (dense-registration) image between verification points
+
+
+@dataclass
+class Frame:
+    stamp: float
+    features: Features
+    small_rgb: np.ndarray | None        # (h, w, 3) uint8 at config.dense_scale (None without colour)
+    small_depth: np.ndarray | None      # (h, w) float32 metres, NaN = no reading (None without depth)
+    dense: DenseImage | None            # for dense registration (None without depth)
+    sharpness: float = 0.0              # variance of the Laplacian of the small grey image (blur lowers it)
+    _probe: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def has_depth(self) -> bool:
+        return self.small_depth is not None
+
+    def probe_points(self, intrinsics: CameraIntrinsics) -> np.ndarray:
+        """3-D points (N, 3) in C on a regular grid of the small depth image (every
+        ``PROBE_STRIDE``-th pixel with a reading): what registrations are verified with."""
+        if self._probe is None:
+            if self.small_depth is None:
+                self._probe = np.zeros((0, 3))
+            else:
+                v, u = np.mgrid[PROBE_STRIDE // 2:intrinsics.height:PROBE_STRIDE,
+                                PROBE_STRIDE // 2:intrinsics.width:PROBE_STRIDE]
+                z = self.small_depth[v, u].ravel()
+                ok = np.isfinite(z)
+                self._probe = intrinsics.rays(u.ravel()[ok], v.ravel()[ok]) * z[ok, None]
+        return self._probe
+
+
+class FramePreparer:
+    """Turns raw images into :class:`Frame` s for one camera."""
+
+    def __init__(self, intrinsics: CameraIntrinsics, config: SlamConfig) -> None:
+        self.intrinsics = intrinsics
+        self.config = config
+        w = max(8, int(round(intrinsics.width * config.dense_scale)))
+        h = max(8, int(round(intrinsics.height * config.dense_scale)))
+        self.small_intrinsics = intrinsics.scaled(w, h)
+        self.extractor = FeatureExtractor(intrinsics, config)
+        self.registration = DenseRegistration(OdometryConfig(
+            scale=1.0, threads=config.threads, min_depth=config.min_depth, max_depth=config.max_depth,
+            iterations=tuple(config.dense_iterations)))
+        self._maps = None
+        if config.distortion:
+            self._maps = cv2.initUndistortRectifyMap(intrinsics.K, np.asarray(config.distortion, np.float64), None,
+                                                     intrinsics.K, (intrinsics.width, intrinsics.height), cv2.CV_16SC2)
+
+    def check(self, rgb: np.ndarray | None, depth: np.ndarray | None) -> None:
+        K = self.intrinsics
+        if rgb is not None and (rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8
+                                or rgb.shape[:2] != (K.height, K.width)):
+            raise ValueError(f"colour must be a {K.width}x{K.height} RGB uint8 image (H, W, 3), "
+                             f"got {rgb.dtype} {rgb.shape}")
+        if depth is not None and (depth.ndim != 2 or not np.issubdtype(depth.dtype, np.floating)
+                                  or depth.shape != (K.height, K.width)):
+            raise ValueError(f"depth must be a {K.width}x{K.height} float image in metres, got {depth.dtype} {depth.shape}")
+
+    def prepare(self, stamp: float, rgb: np.ndarray | None, depth: np.ndarray | None) -> Frame:
+        self.check(rgb, depth)
+        if depth is not None:
+            depth = np.asarray(depth, dtype=np.float32)
+        if self._maps is not None:
+            if rgb is not None:
+                rgb = cv2.remap(rgb, *self._maps, cv2.INTER_LINEAR)
+            if depth is not None:
+                depth = cv2.remap(depth, *self._maps, cv2.INTER_NEAREST, borderValue=float("nan"))
+        features = Features.empty()
+        if rgb is not None:
+            features = self.extractor.extract(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), depth)
+        size = (self.small_intrinsics.width, self.small_intrinsics.height)
+        small_rgb = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA) if rgb is not None else None
+        small_depth = cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST) if depth is not None else None
+        dense = self.dense_image(small_rgb, small_depth) if small_depth is not None else None
+        sharpness = 0.0
+        if small_rgb is not None:
+            sharpness = float(cv2.Laplacian(cv2.cvtColor(small_rgb, cv2.COLOR_RGB2GRAY), cv2.CV_32F).var())
+        return Frame(stamp, features, small_rgb, small_depth, dense, sharpness)
+
+    def keyframe_frame(self, kf) -> Frame:
+        """A keyframe as a :class:`Frame` to register against (its images decoded)."""
+        small_rgb, small_depth = kf.images()
+        return Frame(kf.stamp, kf.features, small_rgb, small_depth, self.dense_image(small_rgb, small_depth))
+
+    def dense_image(self, small_rgb: np.ndarray | None, small_depth: np.ndarray) -> DenseImage:
+        """The dense-registration image of a small colour/depth pair (a grey image stands in for
+        missing colour: the registration is then geometric only)."""
+        if small_rgb is None:
+            small_rgb = np.full(small_depth.shape + (3,), 128, np.uint8)
+        return self.registration.prepare(small_rgb, small_depth, self.small_intrinsics)

@@ -1,0 +1,143 @@
+"""The relative pose of two frames: ORB matches + PnP RANSAC, refined by dense RGB-D
+registration and verified by depth agreement (no ROS). Tracking, covisibility and loop edges
+and relocalisation all use it.
+
+Conventions: ``target ← source`` maps points of the source camera frame into the target's; the
+target is usually a keyframe (its features carry 3-D points), the source the frame being placed.
+
+1. Source descriptors are matched to the target's features that have depth (ratio test);
+   ``cv2.solvePnPRansac`` (AP3P minimal sets, the config's inlier threshold) then
+   Levenberg-Marquardt on the inliers gives a first pose. PnP alone confuses a small rotation
+   with a translation when the points are far and noisy (blur, coarse pyramid levels): it is a
+   starting point.
+2. The dense registration (``raspv_perception``'s Open3D hybrid odometry, half-size images)
+   refines it. When PnP failed, or disagrees with a predicted pose (motion model, the current
+   map), the dense registration also starts from the prediction.
+3. Each result is verified: a grid of the source's depth points is moved into the target and
+   compared with the target's depth there; a pose counts when at least ``min_agreement`` of
+   the points that land on measured depth agree within the sensor's noise (3σ of the Kinect
+   model σ_z = 1.42 mm·z², Khoshelham & Elberink 2012, plus 1 cm for registration of depth to
+   colour), and at least ``min_inliers`` do. The verified result with most agreeing points wins.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_perception.rgbd_odometry import DenseRegistration
+from raspv_slam.config import SlamConfig
+from raspv_slam.features import DescriptorMatcher, Features
+from raspv_slam.frame import Frame
+from raspv_slam.se3 import from_rvec_tvec, inverse, motion_size
+
+DEPTH_NOISE_Z2 = 1.42e-3      # σ_z / z² of structured-light depth [1/m] (Khoshelham & Elberink 2012)
+DEPTH_SLACK = 0.01            # depth-to-colour registration and interpolation [m]
+
+
+@dataclass
+class Registration:
+    """``target_from_source`` None when it failed; ``inliers`` of PnP (0 without); ``agreeing``
+    3-D points that agree with the target's depth and their ``agreement`` share; ``method``
+    "pnp+dense", "dense", "pnp" (no depth to refine or verify with) or "failed"."""
+
+    target_from_source: np.ndarray | None
+    inliers: int
+    agreeing: int
+    agreement: float
+    method: str
+
+    @property
+    def ok(self) -> bool:
+        return self.target_from_source is not None
+
+
+class FrameRegistrar:
+    def __init__(self, intrinsics: CameraIntrinsics, small_intrinsics: CameraIntrinsics, config: SlamConfig,
+                 dense: DenseRegistration) -> None:
+        self.intrinsics = intrinsics
+        self.small = small_intrinsics
+        self.config = config
+        self.dense = dense
+        self.matcher = DescriptorMatcher(config)
+
+    def pnp(self, source: Features, target: Features, min_inliers: int) -> tuple[np.ndarray | None, int]:
+        """(target ← source from PnP, inliers), (None, inliers) when it failed."""
+        idx3d = target.with_depth
+        if len(source) < min_inliers or len(idx3d) < min_inliers:
+            return None, 0
+        qi, ti = self.matcher.match(source.descriptors, target.descriptors[idx3d])
+        if len(qi) < min_inliers:
+            return None, len(qi)
+        obj = target.points[idx3d[ti]].astype(np.float64)
+        img = source.keypoints[qi].astype(np.float64)
+        K = self.intrinsics.K
+        ok, rvec, tvec, inl = cv2.solvePnPRansac(obj, img, K, None, iterationsCount=200,
+                                                 reprojectionError=self.config.reprojection_px, confidence=0.999,
+                                                 flags=cv2.SOLVEPNP_AP3P)
+        if not ok or inl is None or len(inl) < min_inliers:
+            return None, 0 if inl is None else len(inl)
+        inl = inl.ravel()
+        rvec, tvec = cv2.solvePnPRefineLM(obj[inl], img[inl], K, None, rvec, tvec)
+        proj, _ = cv2.projectPoints(obj, rvec, tvec, K, None)
+        inliers = int((np.linalg.norm(proj.reshape(-1, 2) - img, axis=1) < self.config.reprojection_px).sum())
+        if inliers < min_inliers:
+            return None, inliers
+        return inverse(from_rvec_tvec(rvec, tvec)), inliers
+
+    def agreement(self, source: Frame, target: Frame, target_from_source: np.ndarray) -> tuple[int, float]:
+        """(source probe points agreeing with the target's depth, their share of the points
+        landing on measured target depth)."""
+        p = source.probe_points(self.small)
+        if not len(p) or target.small_depth is None:
+            return 0, 0.0
+        q = p @ target_from_source[:3, :3].T + target_from_source[:3, 3]
+        u, v, z = self.small.project(q)
+        inside = (z > 0) & self.small.contains(u, v)
+        if not inside.any():
+            return 0, 0.0
+        col = np.clip(np.rint(u[inside]).astype(int), 0, self.small.width - 1)
+        row = np.clip(np.rint(v[inside]).astype(int), 0, self.small.height - 1)
+        measured = target.small_depth[row, col]
+        zin = z[inside]
+        has = np.isfinite(measured)
+        if not has.any():
+            return 0, 0.0
+        tol = 3.0 * DEPTH_NOISE_Z2 * zin[has] ** 2 + DEPTH_SLACK
+        agree = int((np.abs(measured[has] - zin[has]) <= tol).sum())
+        return agree, agree / int(has.sum())
+
+    def register(self, source: Frame, target: Frame, min_inliers: int | None = None,
+                 predicted_target_from_source: np.ndarray | None = None) -> Registration:
+        """PnP, dense refinement and verification (see the module docstring)."""
+        c = self.config
+        min_inliers = c.min_inliers if min_inliers is None else min_inliers
+        pose, inliers = self.pnp(source.features, target.features, min_inliers)
+        if source.dense is None or target.dense is None:
+            if pose is None:
+                return Registration(None, inliers, 0, 0.0, "failed")
+            return Registration(pose, inliers, 0, 0.0, "pnp")
+        starts = [s for s in (pose, predicted_target_from_source) if s is not None]
+        best: Registration | None = None
+        for n, start in enumerate(starts):
+            if n == 1 and best is not None and _close(best.target_from_source, start, c):
+                break                              # PnP and the prediction agree: nothing more to try
+            refined, _ = self.dense.register(source.dense, target.dense, start,
+                                             geometric_only=source.small_rgb is None or target.small_rgb is None)
+            dt, dr = motion_size(inverse(start) @ refined)
+            if dt > c.max_frame_translation or dr > c.max_frame_rotation_deg:
+                continue                           # the registration ran away from its start
+            agreeing, share = self.agreement(source, target, refined)
+            if share >= c.min_agreement and agreeing >= min_inliers and (best is None or agreeing > best.agreeing):
+                best = Registration(refined, inliers if n == 0 and pose is not None else 0, agreeing, share,
+                                    "pnp+dense" if n == 0 and pose is not None else "dense")
+        if best is not None:
+            return best
+        return Registration(None, inliers, 0, 0.0, "failed")
+
+
+def _close(a: np.ndarray, b: np.ndarray, c: SlamConfig) -> bool:
+    dt, dr = motion_size(inverse(a) @ b)
+    return dt <= c.agree_translation and dr <= c.agree_rotation_deg

@@ -1,0 +1,138 @@
+"""Loop closing in a background thread: covisibility and loop edges for each new keyframe, then
+pose-graph optimisation (no ROS).
+
+For each keyframe the tracker makes (:meth:`LoopCloser.submit`):
+1. it is indexed in the place database (which learns its vocabulary as the map grows);
+2. **covisibility**: the keyframes sharing most of its view (their 3-D points projected into
+   it with the current poses) are registered to it (PnP + dense refinement from the poses' relative guess); each success is
+   an edge;
+3. **loop**: the place database's best candidates that are not recent and not already linked
+   are verified with PnP RANSAC (at least ``loop_min_inliers`` inliers, no pose guess: the
+   drift may be large) and dense refinement; each success is a loop edge (robust kernel);
+4. the pose graph (GTSAM) is optimised and the map's poses replaced; tracking applies the
+   correction at its next frame.
+
+The thread runs at the tracker's pace: it never holds the map's lock while it computes, so
+tracking does not wait for it (``background=False`` in the config runs it inline, for tests).
+"""
+from __future__ import annotations
+
+import queue
+import threading
+
+import numpy as np
+
+from raspv_slam.config import SlamConfig
+from raspv_slam.frame import FramePreparer
+from raspv_slam.frame_registration import FrameRegistrar
+from raspv_slam.pose_graph import optimise
+from raspv_slam.se3 import inverse, pose_distance
+from raspv_slam.slam_map import Edge, SlamMap
+
+STOP = -1
+
+
+class LoopCloser:
+    def __init__(self, slam_map: SlamMap, registrar: FrameRegistrar, preparer: FramePreparer,
+                 config: SlamConfig) -> None:
+        self.map = slam_map
+        self.registrar = registrar
+        self.preparer = preparer
+        self.config = config
+        self._queue: queue.Queue[int] = queue.Queue()
+        self._thread: threading.Thread | None = None
+        self.loop_edges = 0
+        self.covisibility_edges = 0
+        self.optimisations = 0
+        self.busy_ms: list[float] = []          # time spent per keyframe [ms]
+        self.error: BaseException | None = None
+
+    def submit(self, kf_id: int) -> None:
+        if not self.config.background:
+            self.process(kf_id)
+            return
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._run, name="slam-loop-closing", daemon=True)
+            self._thread.start()
+        self._queue.put(kf_id)
+
+    def _run(self) -> None:
+        while True:
+            kf_id = self._queue.get()
+            try:
+                if kf_id == STOP:
+                    return
+                if self.error is None:
+                    self.process(kf_id)
+            except BaseException as exc:       # kept and re-raised in the tracking thread by check()
+                self.error = exc
+            finally:
+                self._queue.task_done()
+
+    def check(self) -> None:
+        """Re-raise in the caller's thread an error the background thread met."""
+        if self.error is not None:
+            raise RuntimeError(f"SLAM loop closing failed: {self.error}") from self.error
+
+    def wait_idle(self) -> None:
+        if self._thread is not None:
+            self._queue.join()
+        self.check()
+
+    def stop(self) -> None:
+        if self._thread is not None:
+            self._queue.put(STOP)
+            self._thread.join()
+            self._thread = None
+
+    # -- one keyframe -------------------------------------------------------------------------
+    def process(self, kf_id: int) -> None:
+        import time
+
+        t0 = time.perf_counter()
+        c = self.config
+        m = self.map
+        kf = m.keyframes[kf_id]
+        m.places.add(kf_id, kf.features.descriptors)
+        pose = m.pose(kf_id)
+        parent = m.parent.get(kf_id)
+        new_loop = False
+        added = 0
+        near = m.covisible(pose, c.covisible_overlap, exclude={kf_id, parent})
+        for other in near[:c.covisible_keyframes]:
+            guess = inverse(m.pose(other)) @ pose
+            edge = self._verify(kf_id, other, guess, c.min_inliers, "covisibility")
+            if edge is not None:
+                m.add_edge(edge)
+                added += 1
+                self.covisibility_edges += 1
+        recent = {k for k in m.keyframes if k > kf_id - c.loop_exclude_recent}
+        tried = set(near[:c.covisible_keyframes]) | recent | {kf_id}
+        for other, _score in m.places.query(kf.features.descriptors, c.loop_candidates, exclude=tried):
+            if m.connected(kf_id, other):
+                continue
+            edge = self._verify(kf_id, other, None, c.loop_min_inliers, "loop")
+            if edge is not None:
+                m.add_edge(edge)
+                added += 1
+                self.loop_edges += 1
+                new_loop = True
+        if added:
+            with m.lock:
+                edges = list(m.edges)
+            poses = m.poses()
+            optimised = optimise(poses, edges, c, fixed=min(poses))
+            moved = max(pose_distance(poses[k], optimised[k])[0] for k in optimised)
+            m.apply_correction(optimised, closed_loop=new_loop and moved > 1e-3)
+            self.optimisations += 1
+        self.busy_ms.append((time.perf_counter() - t0) * 1e3)
+
+    def _verify(self, kf_id: int, other: int, guess: np.ndarray | None, min_inliers: int, kind: str) -> Edge | None:
+        """An edge other ← kf when the two keyframes register (PnP + dense), else None."""
+        m = self.map
+        frame = lambda k: m.frame(k, self.preparer.keyframe_frame)    # noqa: E731
+        reg = self.registrar.register(frame(kf_id), frame(other), min_inliers=min_inliers,
+                                      predicted_target_from_source=guess)
+        if not reg.ok or reg.method == "pnp" or (kind == "loop" and reg.inliers < min_inliers):
+            return None
+        return Edge(other, kf_id, reg.target_from_source, kind)

@@ -1,0 +1,179 @@
+"""The map: keyframes, their poses, the pose graph's edges, the place database and the anchor of
+the map frame (no ROS).
+
+Frames: S is the SLAM frame (the first keyframe's camera frame of the run that built the map);
+keyframe poses are S ← K. M is the map frame users see: M ← S is the identity-like "level
+camera" turn until the map is anchored to a floor, then gravity-aligned (z up, z = 0 on the
+floor). Thread-safe: tracking reads while the loop closer adds edges and corrects poses.
+"""
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_perception.rgbd_odometry import LEVEL_WORLD_FROM_CAMERA
+from raspv_slam.config import SlamConfig
+from raspv_slam.keyframe import Keyframe
+from raspv_slam.place_recognition import PlaceDatabase
+from raspv_slam.se3 import inverse, pose_distance
+
+EDGE_KINDS = ("odometry", "covisibility", "loop")
+FRAME_CACHE = 12            # decoded keyframes kept for registration
+
+
+@dataclass(frozen=True)
+class Edge:
+    """A measured relative pose ``a ← b`` between keyframes a and b."""
+
+    a: int
+    b: int
+    a_from_b: np.ndarray
+    kind: str                # odometry (tracking chain), covisibility (nearby), loop (place recognition)
+
+
+class SlamMap:
+    def __init__(self, intrinsics: CameraIntrinsics, config: SlamConfig) -> None:
+        self.intrinsics = intrinsics
+        self.config = config
+        self.keyframes: dict[int, Keyframe] = {}
+        self._poses: dict[int, np.ndarray] = {}
+        self.edges: list[Edge] = []
+        self.parent: dict[int, int] = {}            # odometry parent of each keyframe
+        self.world_from_slam = LEVEL_WORLD_FROM_CAMERA.copy()
+        self.anchored = False
+        self.places = PlaceDatabase(config)
+        self.lock = threading.RLock()
+        self.generation = 0                         # counts pose corrections
+        self.loop_generation = 0                    # counts corrections that closed a loop
+        self._next_id = 0
+        self._frames: OrderedDict[int, object] = OrderedDict()
+
+    # -- keyframes and poses ------------------------------------------------------------------
+    def __len__(self) -> int:
+        return len(self.keyframes)
+
+    def new_id(self) -> int:
+        with self.lock:
+            self._next_id += 1
+            return self._next_id - 1
+
+    def add_keyframe(self, kf: Keyframe, slam_from_kf: np.ndarray, parent: int | None = None,
+                     parent_from_kf: np.ndarray | None = None) -> None:
+        with self.lock:
+            self.keyframes[kf.id] = kf
+            self._poses[kf.id] = np.array(slam_from_kf, dtype=np.float64)
+            self._next_id = max(self._next_id, kf.id + 1)
+            if parent is not None:
+                self.parent[kf.id] = parent
+                self.edges.append(Edge(parent, kf.id, np.array(parent_from_kf, dtype=np.float64), "odometry"))
+
+    def pose(self, kf_id: int) -> np.ndarray:
+        """S ← K of a keyframe (a copy)."""
+        with self.lock:
+            return self._poses[kf_id].copy()
+
+    def poses(self) -> dict[int, np.ndarray]:
+        with self.lock:
+            return {k: v.copy() for k, v in self._poses.items()}
+
+    def add_edge(self, edge: Edge) -> None:
+        if edge.kind not in EDGE_KINDS:
+            raise ValueError(f"unknown edge kind {edge.kind!r}")
+        with self.lock:
+            self.edges.append(edge)
+
+    def connected(self, a: int, b: int) -> bool:
+        with self.lock:
+            return any({e.a, e.b} == {a, b} for e in self.edges)
+
+    def apply_correction(self, optimised: dict[int, np.ndarray], closed_loop: bool) -> None:
+        """Replace the poses of the optimised keyframes; keyframes added since the optimisation
+        started move with their odometry parent."""
+        with self.lock:
+            before = self._poses
+            after = {k: np.array(v, dtype=np.float64) for k, v in optimised.items() if k in before}
+            for k in sorted(set(before) - set(after)):
+                p = self.parent.get(k)
+                if p is not None and p in after:
+                    after[k] = after[p] @ inverse(before[p]) @ before[k]
+                else:
+                    after[k] = before[k]
+            self._poses = after
+            self.generation += 1
+            if closed_loop:
+                self.loop_generation += 1
+
+    def nearby(self, slam_from_camera: np.ndarray, radius: float, angle_deg: float,
+               exclude: set[int] = frozenset()) -> list[int]:
+        """Keyframes within ``radius`` metres and ``angle_deg`` of a pose, nearest first
+        (distance plus angle weighted 1 m per 60°)."""
+        with self.lock:
+            items = list(self._poses.items())
+        out = []
+        for k, p in items:
+            if k in exclude:
+                continue
+            dt, dr = pose_distance(p, slam_from_camera)
+            if dt <= radius and dr <= angle_deg:
+                out.append((dt + dr / 60.0, k))
+        return [k for _, k in sorted(out)]
+
+    def view_overlap(self, kf_id: int, kf_from_camera: np.ndarray) -> float:
+        """Share of a keyframe's 3-D feature points that a camera at ``kf_from_camera`` sees (in
+        front of it, inside the image)."""
+        f = self.keyframes[kf_id].features
+        p = f.points[f.with_depth].astype(np.float64)
+        if not len(p):
+            return 0.0
+        camera_from_kf = inverse(kf_from_camera)
+        q = p @ camera_from_kf[:3, :3].T + camera_from_kf[:3, 3]
+        u, v, z = self.intrinsics.project(q)
+        return float(((z > self.config.min_depth) & self.intrinsics.contains(u, v)).mean())
+
+    def covisible(self, slam_from_camera: np.ndarray, min_overlap: float, exclude: set[int] = frozenset(),
+                  radius: float = 2.0, angle_deg: float = 90.0) -> list[int]:
+        """Keyframes (within ``radius`` and ``angle_deg`` of the pose) sharing at least
+        ``min_overlap`` of their points with a camera at that pose, most shared first."""
+        scored = []
+        for k in self.nearby(slam_from_camera, radius, angle_deg, exclude):
+            overlap = self.view_overlap(k, inverse(self.pose(k)) @ slam_from_camera)
+            if overlap >= min_overlap:
+                scored.append((-overlap, k))
+        return [k for _, k in sorted(scored)]
+
+    # -- decoded keyframes --------------------------------------------------------------------
+    def frame(self, kf_id: int, make: Callable[[Keyframe], object]):
+        """A keyframe decoded for registration (``make``: FramePreparer.keyframe_frame), kept in a
+        small LRU cache."""
+        with self.lock:
+            frame = self._frames.get(kf_id)
+            if frame is not None:
+                self._frames.move_to_end(kf_id)
+                return frame
+            kf = self.keyframes[kf_id]
+        frame = make(kf)
+        with self.lock:
+            self._frames[kf_id] = frame
+            while len(self._frames) > FRAME_CACHE:
+                self._frames.popitem(last=False)
+        return frame
+
+    # -- frames -------------------------------------------------------------------------------
+    def world_from_camera(self, slam_from_camera: np.ndarray) -> np.ndarray:
+        with self.lock:
+            return self.world_from_slam @ slam_from_camera
+
+    def anchor(self, world_from_slam: np.ndarray) -> None:
+        with self.lock:
+            self.world_from_slam = np.array(world_from_slam, dtype=np.float64)
+            self.anchored = True
+
+    @property
+    def nbytes(self) -> int:
+        with self.lock:
+            return sum(kf.nbytes for kf in self.keyframes.values()) + self.places.nbytes

@@ -1,0 +1,286 @@
+"""The SLAM system: one object that takes RGB-D frames and returns poses (no ROS).
+
+Per frame (:meth:`SlamSystem.process`): the frame is registered to its reference keyframe
+(ORB + PnP, refined by dense RGB-D registration, :mod:`frame_registration`); when that fails
+the constant-velocity motion model carries the pose, and after ``lost_after`` failures the
+state is LOST and every frame tries to relocalise in the map (place recognition + PnP). When
+the view leaves the reference keyframe, a nearby keyframe is reused or a new one is made; the
+loop closer (:mod:`loop_closing`, a background thread) links it to covisible keyframes and to
+places seen before and optimises the pose graph; tracking picks the corrected poses up at its
+next frame.
+
+Frames (REP 105): M map, O odometry (continuous), C camera optical; S the first keyframe's
+camera frame (internal). ``map_from_camera = map_from_odom @ odom_from_camera``; odometry
+integrates the frame-to-frame motions only, so it never jumps; loop closures and
+relocalisations move ``map_from_odom``.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections import OrderedDict, deque
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from raspv_common.intrinsics import CameraIntrinsics
+from raspv_perception.rgbd_odometry import world_from_floor_plane
+from raspv_slam.config import SlamConfig
+from raspv_slam.frame import Frame, FramePreparer
+from raspv_slam.frame_registration import FrameRegistrar
+from raspv_slam.keyframe import Keyframe, encode_images
+from raspv_slam.loop_closing import LoopCloser
+from raspv_slam.results import MapSnapshot, SlamResult, TrackingState
+from raspv_slam.se3 import inverse, motion_size
+from raspv_slam.slam_map import SlamMap
+
+HISTORY = 300               # frames whose poses anchor_to_floor can still look up
+STAMP_TOLERANCE_S = 1e-3
+
+
+class SlamSystem:
+    """RGB-D SLAM. ``slam_map`` continues (or, with ``localisation_only``, localises in) a map
+    loaded with :func:`raspv_slam.map_store.load_map` / :meth:`load`."""
+
+    def __init__(self, intrinsics: CameraIntrinsics, config: SlamConfig | None = None,
+                 slam_map: SlamMap | None = None, localisation_only: bool = False) -> None:
+        self.config = config = config or (slam_map.config if slam_map is not None else SlamConfig())
+        self.intrinsics = intrinsics
+        if slam_map is not None and (slam_map.intrinsics.width, slam_map.intrinsics.height) != \
+                (intrinsics.width, intrinsics.height):
+            raise ValueError(f"the map was made with a {slam_map.intrinsics.width}x{slam_map.intrinsics.height} "
+                             f"camera, this one is {intrinsics.width}x{intrinsics.height}")
+        cv2.setNumThreads(config.threads)
+        self.localisation_only = localisation_only
+        self.preparer = FramePreparer(intrinsics, config)
+        self.registrar = FrameRegistrar(intrinsics, self.preparer.small_intrinsics, config, self.preparer.registration)
+        self.map = slam_map if slam_map is not None else SlamMap(intrinsics, config)
+        self.loop_closer = None if localisation_only else LoopCloser(self.map, self.registrar, self.preparer, config)
+        self.state = TrackingState.INITIALISING
+        self.ref: int | None = None                  # reference keyframe
+        self.ref_from_camera = np.eye(4)
+        self.velocity = np.eye(4)                    # C_{k-1} ← C_k of the last tracked frames
+        self.failures = 0
+        self.odom_from_camera = np.eye(4)
+        self.map_from_odom = np.eye(4)
+        self._loop_generation = self.map.loop_generation
+        self._history: OrderedDict[float, tuple[int, np.ndarray]] = OrderedDict()
+        self._last_tracked: tuple[Frame, int, np.ndarray] | None = None
+        self._recent: deque[tuple[Frame, int, np.ndarray]] = deque(maxlen=config.keyframe_candidates)
+        self._trajectory: list[tuple[float, int, np.ndarray]] = []     # every placed frame: stamp, ref, ref ← C
+        self.counts = {"frames": 0, "tracked": 0, "predicted": 0, "lost": 0, "relocalised": 0, "loops": 0,
+                       "to_last_frame": 0}
+
+    # -- per frame ----------------------------------------------------------------------------
+    def process(self, stamp: float, rgb: np.ndarray | None, depth: np.ndarray | None) -> SlamResult:
+        """One frame: colour (H, W, 3) uint8 RGB, depth (H, W) float32 metres (NaN = no
+        reading); either may be None."""
+        t0 = time.perf_counter()
+        frame = self.preparer.prepare(float(stamp), rgb, depth)
+        self.counts["frames"] += 1
+        loop_closed = self.map.loop_generation != self._loop_generation
+        self._loop_generation = self.map.loop_generation
+        inliers = 0
+        if self.ref is None and len(self.map) == 0 and not self.localisation_only:
+            state = self._initialise(frame)
+        elif self.ref is None or self.state == TrackingState.LOST:
+            state, inliers = self._relocalise(frame)
+        else:
+            state, inliers = self._track(frame)
+            if state == TrackingState.TRACKING and loop_closed:
+                state = TrackingState.LOOP_CLOSED
+                self.counts["loops"] += 1
+        self.state = state
+        map_from_camera = None
+        if state not in (TrackingState.LOST, TrackingState.INITIALISING):
+            slam_from_camera = self.map.pose(self.ref) @ self.ref_from_camera
+            map_from_camera = self.map.world_from_camera(slam_from_camera)
+            self.map_from_odom = map_from_camera @ inverse(self.odom_from_camera)
+            self._history[float(stamp)] = (self.ref, self.ref_from_camera.copy())
+            self._trajectory.append((float(stamp), self.ref, self.ref_from_camera.copy()))
+            while len(self._history) > HISTORY:
+                self._history.popitem(last=False)
+        return SlamResult(float(stamp), state, map_from_camera, self.odom_from_camera.copy(),
+                          self.map_from_odom.copy(), self.ref, inliers, (time.perf_counter() - t0) * 1e3)
+
+    def _initialise(self, frame: Frame) -> TrackingState:
+        if not frame.has_depth or len(frame.features.with_depth) < self.config.min_inliers:
+            return TrackingState.INITIALISING
+        self.ref = self._add_keyframe(frame, np.eye(4), None, None)
+        self.ref_from_camera = np.eye(4)
+        self.counts["tracked"] += 1
+        return TrackingState.TRACKING
+
+    def _track(self, frame: Frame) -> tuple[TrackingState, int]:
+        c = self.config
+        ref_from_previous = self.ref_from_camera
+        predicted = ref_from_previous @ self.velocity
+        reg = self.registrar.register(frame, self._keyframe(self.ref), predicted_target_from_source=predicted)
+        ref_from_camera = reg.target_from_source if reg.ok else None
+        if ref_from_camera is None and self._last_tracked is not None:
+            # fast motion took the view too far from the keyframe: register to the last tracked frame
+            last, last_ref, last_ref_from_last = self._last_tracked
+            ref_from_last = inverse(self.map.pose(self.ref)) @ self.map.pose(last_ref) @ last_ref_from_last
+            reg = self.registrar.register(frame, last, predicted_target_from_source=inverse(ref_from_last) @ predicted)
+            if reg.ok:
+                ref_from_camera = ref_from_last @ reg.target_from_source
+                self.counts["to_last_frame"] += 1
+        if ref_from_camera is not None:
+            delta = inverse(ref_from_previous) @ ref_from_camera
+            dt, dr = motion_size(delta)
+            if dt > c.max_frame_translation or dr > c.max_frame_rotation_deg:
+                ref_from_camera = None
+        if ref_from_camera is None:
+            self.failures += 1
+            if self.failures >= c.lost_after:
+                self.counts["lost"] += 1
+                self.velocity = np.eye(4)
+                return TrackingState.LOST, 0
+            self.ref_from_camera = predicted                    # the motion model carries the pose
+            self.odom_from_camera = self.odom_from_camera @ self.velocity
+            self.counts["predicted"] += 1
+            return TrackingState.TRACKING, 0
+        self.failures = 0
+        self.velocity = delta
+        self.odom_from_camera = self.odom_from_camera @ delta
+        self.ref_from_camera = ref_from_camera
+        self.counts["tracked"] += 1
+        self._recent.append((frame, self.ref, self.ref_from_camera))
+        self._last_tracked = self._recent[-1]
+        self._maybe_new_keyframe(frame)
+        return TrackingState.TRACKING, reg.inliers
+
+    def _maybe_new_keyframe(self, frame: Frame) -> None:
+        c = self.config
+        dt, dr = motion_size(self.ref_from_camera)
+        if (dt <= c.keyframe_translation and dr <= c.keyframe_rotation_deg
+                and self.map.view_overlap(self.ref, self.ref_from_camera) >= c.keyframe_overlap):
+            return
+        slam_from_camera = self.map.pose(self.ref) @ self.ref_from_camera
+        for kf_id in self.map.nearby(slam_from_camera, c.reuse_radius, c.reuse_angle_deg, exclude={self.ref})[:3]:
+            kf_from_camera = inverse(self.map.pose(kf_id)) @ slam_from_camera
+            if self.map.view_overlap(kf_id, kf_from_camera) < c.keyframe_overlap:
+                continue
+            reg = self.registrar.register(frame, self._keyframe(kf_id), predicted_target_from_source=kf_from_camera)
+            if reg.ok and self.map.view_overlap(kf_id, reg.target_from_source) >= c.keyframe_overlap:
+                self.ref, self.ref_from_camera = kf_id, reg.target_from_source
+                return
+        if self.localisation_only:
+            return
+        # the sharpest recent frame tracked against the same reference becomes the keyframe
+        usable = [(f.sharpness, i) for i, (f, ref, _) in enumerate(self._recent)
+                  if ref == self.ref and f.has_depth and len(f.features.with_depth) >= c.min_inliers]
+        if not usable:
+            return
+        best, ref, ref_from_best = self._recent[max(usable)[1]]
+        slam_from_best = self.map.pose(ref) @ ref_from_best
+        self.ref = self._add_keyframe(best, slam_from_best, ref, ref_from_best)
+        self.ref_from_camera = inverse(slam_from_best) @ slam_from_camera
+        self._recent.clear()
+
+    def _relocalise(self, frame: Frame) -> tuple[TrackingState, int]:
+        c = self.config
+        found = None
+        for kf_id, _score in self.map.places.query(frame.features.descriptors, c.loop_candidates):
+            reg = self.registrar.register(frame, self._keyframe(kf_id), min_inliers=c.loop_min_inliers)
+            if reg.ok and reg.inliers >= c.loop_min_inliers and (found is None or reg.inliers > found[1].inliers):
+                found = (kf_id, reg)
+        if found is None:
+            return (TrackingState.INITIALISING if self.ref is None else TrackingState.LOST), 0
+        self.ref, self.ref_from_camera = found[0], found[1].target_from_source
+        self.velocity = np.eye(4)
+        self.failures = 0
+        self.counts["relocalised"] += 1
+        return TrackingState.RELOCALISED, found[1].inliers
+
+    def _add_keyframe(self, frame: Frame, slam_from_camera: np.ndarray, parent: int | None,
+                      parent_from_kf: np.ndarray | None) -> int:
+        color, depth = encode_images(frame.small_rgb, frame.small_depth)
+        kf = Keyframe(self.map.new_id(), frame.stamp, frame.features, color, depth)
+        self.map.add_keyframe(kf, slam_from_camera, parent, parent_from_kf)
+        self.loop_closer.submit(kf.id)
+        return kf.id
+
+    def _keyframe(self, kf_id: int) -> Frame:
+        return self.map.frame(kf_id, self.preparer.keyframe_frame)
+
+    # -- the map frame ------------------------------------------------------------------------
+    def anchor_to_floor(self, floor_plane: np.ndarray, stamp: float) -> None:
+        """Make M gravity-aligned from a floor (a, b, c, d), normal up, seen in the camera frame of
+        the frame with that stamp (z up, z = 0 on the floor, x along the first keyframe's view
+        direction; RGBDOdometry.anchor_to_floor's frame). A map already anchored (or a loaded
+        one) keeps its frame; a stamp no longer (or never) tracked raises ValueError."""
+        if self.map.anchored:
+            return
+        key = min(self._history, key=lambda s: abs(s - stamp), default=None)
+        if key is None or abs(key - stamp) > STAMP_TOLERANCE_S:
+            raise ValueError(f"no tracked frame with stamp {stamp:.3f}")
+        ref, ref_from_camera = self._history[key]
+        self.map.anchor(world_from_floor_plane(np.asarray(floor_plane, np.float64), self.map.pose(ref) @ ref_from_camera))
+
+    # -- the map ------------------------------------------------------------------------------
+    def snapshot(self, max_landmarks: int = 5000) -> MapSnapshot:
+        from raspv_slam.floor_occupancy import floor_occupancy
+
+        poses = self.map.poses()
+        with self.map.lock:
+            world_from_slam = self.map.world_from_slam.copy()
+            edges = list(self.map.edges)
+            keyframes = dict(self.map.keyframes)
+        per_kf = max(1, max_landmarks // max(1, len(keyframes)))
+        points = []
+        for k, kf in keyframes.items():
+            p = kf.features.points[kf.features.with_depth][:per_kf].astype(np.float64)
+            T = world_from_slam @ poses[k]
+            points.append(p @ T[:3, :3].T + T[:3, 3])
+        landmarks = np.concatenate(points) if points else np.zeros((0, 3))
+        occupancy = floor_occupancy(self.map) if self.map.anchored else None
+        return MapSnapshot({k: world_from_slam @ p for k, p in poses.items()}, landmarks[:max_landmarks],
+                           [(e.a, e.b) for e in edges if e.kind == "loop"], occupancy, self.map.anchored,
+                           [(e.a, e.b) for e in edges if e.kind == "covisibility"])
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps (N,), poses M ← C (N, 4, 4)) of every frame placed so far, relative to its
+        reference keyframe's pose *now* (after every correction): the trajectory SLAM
+        benchmarks evaluate (ORB-SLAM's SaveTrajectoryTUM)."""
+        if self.loop_closer is not None:
+            self.loop_closer.wait_idle()
+        poses = self.map.poses()
+        with self.map.lock:
+            world_from_slam = self.map.world_from_slam.copy()
+        stamps = np.array([t for t, _, _ in self._trajectory])
+        out = np.array([world_from_slam @ poses[ref] @ rel for _, ref, rel in self._trajectory]).reshape(-1, 4, 4)
+        return stamps, out
+
+    def save(self, path: str | Path) -> None:
+        """Write the map into the folder ``path`` (see :mod:`raspv_slam.map_store`)."""
+        from raspv_slam.map_store import save_map
+
+        if self.loop_closer is not None:
+            self.loop_closer.wait_idle()
+        save_map(self.map, path)
+
+    @classmethod
+    def load(cls, path: str | Path, intrinsics: CameraIntrinsics, config: SlamConfig | None = None,
+             localisation_only: bool = True) -> "SlamSystem":
+        """A system on a saved map (a folder, or a name in the maps directory)."""
+        from raspv_slam.map_store import load_map
+
+        return cls(intrinsics, config, load_map(path, config), localisation_only)
+
+    def close(self) -> None:
+        """Stop the background thread (pending keyframes are processed first)."""
+        if self.loop_closer is not None:
+            self.loop_closer.stop()
+
+    def __enter__(self) -> "SlamSystem":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def tracked_share(self) -> float:
+        n = self.counts["frames"]
+        return math.nan if not n else (self.counts["tracked"] + self.counts["relocalised"]) / n
