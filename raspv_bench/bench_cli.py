@@ -27,6 +27,7 @@ BENCHES: dict[str, str] = {
     "foxglove": "raspv_bench.foxglove",
     "twin": "raspv_bench.twin",
     "learned": "raspv_bench.learned",
+    "ratios": "raspv_bench.ratios",
 }
 
 
@@ -41,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             settings = ", ".join(f"--{k.replace('_', '-')} {v}" if not isinstance(v, bool) else f"--{k.replace('_', '-')}"
                                  for k, v in quick.items())
             p.add_argument("--quick", action="store_true", help=f"a smoke run in seconds (the test suite's): {settings}")
+        if hasattr(mod, "measure"):
+            p.add_argument("--ratios", metavar="FILE",
+                           help="also write the ratios against the peers run side by side as JSON to FILE")
         p.set_defaults(_bench_module=mod)
 
 

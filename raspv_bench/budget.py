@@ -41,7 +41,10 @@ def _frame_work(sim, levels: np.ndarray) -> None:
     array.array("f", b.astype(np.float32).tobytes())
 
 
-def run(args: argparse.Namespace) -> int:
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """Every configuration, printed; ``predicted_vs_measured``: the median over configurations
+    of the prediction from the bare operations (the peer, timed in the same run) ÷ the measured
+    frame work — how close the display loop stays to what its operations cost alone."""
     from raspv_spv.config import spv_config
     from raspv_spv.display_budget import DisplayCost, check_display_rate, load_of_config
     from raspv_spv.simulator import PhospheneSimulator
@@ -77,4 +80,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"  CPU min / predicted: median {statistics.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f}; "
           "wall p50 above it is other processes' load (the model is this machine's cost when the display thread runs; "
           "the node adds the overhead it measures on its own display loop)")
+    return {"predicted_vs_measured": statistics.median(1 / r for r in ratios)}
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bench.ratios import report
+
+    report(args, measure(args))
     return 0

@@ -1,6 +1,8 @@
 """Headset bridge latency: phosphene frame published → received by a client, head orientation sent → published.
 
-Part 1 (codecs) times the frame encodings on an 800×800 phosphene test pattern. Part 2 runs the
+Part 1 (codecs) times the frame encodings on an 800×800 phosphene test pattern, and the levels
+stream against PNG images of the same simulated frames (time per frame at the bridge, bytes: the
+ratios ``measure`` returns, gated by tests/bench/test_bench_ratios.py). Part 2 runs the
 server core in this process, feeds it frames at the display rate and measures, from a reference
 client in another process (``raspv hmd-client --json``) on loopback, image time → frame received
 for each transport (WebSocket, TCP) and encoding (raw, PNG), and head message sent → handed to
@@ -36,6 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=float, default=50.0, help="frames per second published (default 50)")
     parser.add_argument("--seconds", type=float, default=5.0, help="measurement time per case [s] (default 5)")
     parser.add_argument("--no-ros", action="store_true", help="skip part 3 (through a ROS graph)")
+    parser.add_argument("--codecs-only", action="store_true", help="part 1 only: the encodings (no server, no ROS)")
 
 
 def _stats(values: list[float]) -> str:
@@ -82,6 +85,56 @@ def codec_bench(frames: list[np.ndarray]) -> None:
     print(f"  PNG, no filter, zlib 2 (ours) [ms] {_stats(ours)}  → {statistics.median(size_ours) / 1e3:.0f} kB "
           f"({raw / statistics.median(size_ours):.1f}x smaller)")
     print(f"  PNG, OpenCV defaults          [ms] {_stats(default)}  → {statistics.median(size_default) / 1e3:.0f} kB")
+
+
+def levels_bench(width: int = 800, frames: int = 24, rounds: int = 7) -> dict[str, float]:
+    """The levels stream against PNG images for the same phosphene frames, as the bridge sends
+    them: the default preset at ``width`` px (the spv node's 800 by default), grey mode on a
+    real RGB-D frame moving every frame, temporal model on. Per frame the bridge packs the
+    weights (:func:`raspv_hmd.levels_stream.pack_levels_payload`) or encodes the rendered image
+    as PNG (:class:`~raspv_hmd.frame_encoding.OutgoingFrame`); timed in alternation. Returns
+    ``levels_vs_png_time`` (times faster) and ``levels_vs_png_bytes`` (times smaller)."""
+    from raspv_bench.ratios import side_by_side
+    from raspv_bench.spv import _test_frames
+    from raspv_hmd import levels_stream
+    from raspv_hmd import protocol as P
+    from raspv_hmd.frame_encoding import OutgoingFrame
+    from raspv_spv import sprite_atlas
+    from raspv_spv.config import spv_config
+    from raspv_spv.frame_inputs import FrameInputs
+    from raspv_spv.simulator import PhospheneSimulator
+
+    sim = PhospheneSimulator(spv_config("default", width=width, mode="grey", temporal=True))
+    pairs, camera, source = _test_frames()
+    color, depth = pairs[0]
+    shown = []
+    for i in range(frames):                                 # the frame drifts 2 px a frame
+        step = sim.step(FrameInputs(color=np.roll(color, 2 * i, axis=1), depth=np.roll(depth, 2 * i, axis=1),
+                                    camera=camera))
+        shown.append((step.brightness, step.image))
+    atlas_levels, num_levels = sim.renderer.levels, sim.num_levels
+    at = [0, 0]
+
+    def levels() -> bytes:
+        at[0] = (at[0] + 1) % frames
+        b = shown[at[0]][0]
+        weights = sprite_atlas.frame_weights(b, None, atlas_levels, num_levels)
+        return levels_stream.pack_levels_payload(1, weights, None, atlas_levels)
+
+    def png() -> bytes:
+        at[1] = (at[1] + 1) % frames
+        return OutgoingFrame(at[1], shown[at[1]][1], 0.0).payload(P.FORMAT_PNG)[1]
+
+    level_bytes = statistics.mean(len(levels()) for _ in range(frames))
+    png_bytes = statistics.mean(len(png()) for _ in range(frames))
+    r = side_by_side(levels, png, rounds=rounds, ours_calls=200, peer_calls=4)
+    print(f"part 1b — levels stream vs PNG images of the same {frames} frames: default preset {sim.count} phosphenes, "
+          f"{width}x{width}, grey mode on a {source} moving 2 px a frame, temporal model on")
+    print(f"  bridge per frame: levels payload {1e3 * r.ours_s:.4f} ms, PNG {1e3 * r.peer_s:.2f} ms "
+          f"(in alternation): {r.ratio:.0f}x faster")
+    print(f"  bytes per frame: levels {level_bytes / 1e3:.1f} kB, PNG {png_bytes / 1e3:.1f} kB: "
+          f"{png_bytes / level_bytes:.1f}x smaller (the client draws the sprites it received once)")
+    return {"levels_vs_png_time": r.ratio, "levels_vs_png_bytes": png_bytes / level_bytes}
 
 
 def _run_client(url: str, seconds: float, fmt: str, head: bool = True) -> dict:
@@ -221,17 +274,15 @@ def ros_bench(args, frames: list[np.ndarray]) -> list[str]:
     return failures
 
 
-def run(args: argparse.Namespace) -> int:
-    try:
-        width, height = _size(args.size)
-    except ValueError:
-        print(f"raspv bench hmd: --size must be WxH (at least 8x8), e.g. 800x800, got {args.size!r}")
-        return 2
-    if not (args.rate > 0 and args.seconds > 0):
-        print("raspv bench hmd: --rate and --seconds must be > 0")
-        return 2
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """The parts asked for, printed; the levels stream's ratios against PNG images
+    (:func:`levels_bench`). Above-target cases are listed, not raised."""
+    width, height = _size(args.size)
     frames = _frames(width, height, args.rate)
     codec_bench(frames)
+    ratios = levels_bench()
+    if args.codecs_only:
+        return ratios
     failures = core_bench(args, frames)
     if not args.no_ros:
         failures += ros_bench(args, frames)
@@ -240,4 +291,19 @@ def run(args: argparse.Namespace) -> int:
         print(f"  ABOVE TARGET: {f}")
     if not failures:
         print("  all cases within the targets")
+    return ratios
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bench.ratios import report
+
+    try:
+        _size(args.size)
+    except ValueError:
+        print(f"raspv bench hmd: --size must be WxH (at least 8x8), e.g. 800x800, got {args.size!r}")
+        return 2
+    if not (args.rate > 0 and args.seconds > 0):
+        print("raspv bench hmd: --rate and --seconds must be > 0")
+        return 2
+    report(args, measure(args))
     return 0

@@ -28,7 +28,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 # --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
-QUICK = {"repeats": 1, "seconds": 5.0}
+QUICK = {"repeats": 2, "seconds": 5.0}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,12 +45,16 @@ def _stats(values: list[float]) -> str:
     return f"median {statistics.median(v):7.2f}  p95 {p95:7.2f}  max {v[-1]:7.2f}"
 
 
-def _time(fn, repeats: int) -> list[float]:
+def _time(fn, repeats: int, cpu: list[float] | None = None) -> list[float]:
+    """Wall milliseconds of ``repeats`` calls; their CPU milliseconds (this thread's) appended
+    to ``cpu`` when given (the ratios: what other processes' load does not change)."""
     out = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        c0, t0 = time.thread_time(), time.perf_counter()
         fn()
         out.append(1e3 * (time.perf_counter() - t0))
+        if cpu is not None:
+            cpu.append(1e3 * (time.thread_time() - c0))
     return out
 
 
@@ -77,7 +81,9 @@ def previous_replan(grid, config, live_obstacles, start, goal, planner):
     return grid.cell_to_world(cells[planner._shortcut(cells, state)])
 
 
-def core_bench(args) -> None:
+def core_bench(args) -> dict[str, float]:
+    """Part 1, printed; the ratios against the peers timed beside ours at every start:
+    ``previous_dijkstra`` (with a person ahead) and ``textbook_astar`` (times faster)."""
     import numpy as np
 
     from raspv_nav.assistant import NavigationAssistant
@@ -100,17 +106,19 @@ def core_bench(args) -> None:
     rows, cols = grid.shape
     rr, cc = np.mgrid[:rows, :cols]
     new_free, new_person, old_person, heap_person, expanded = [], [], [], [], []
+    cpu: dict[str, list[float]] = {"new": [], "old": [], "heap": []}
     for start in starts:
         new_free += _time(lambda: planner.plan(start, goal), args.repeats)
         person = grid.world_to_cell([[start[0] + 2.0, 6.0]])[0]
         live = costmap.static_obstacles | ((rr - person[0]) ** 2 + (cc - person[1]) ** 2 <= 5 ** 2)
         state = inflate_obstacles(live, grid.resolution, costmap.config, costmap.unknown)
-        new_person += _time(lambda: planner.plan(start, goal, state), args.repeats)
+        new_person += _time(lambda: planner.plan(start, goal, state), args.repeats, cpu["new"])
         expanded.append(planner.plan(start, goal, state).expanded)
-        old_person += _time(lambda: previous_replan(grid, costmap.config, live, start, goal, planner), args.repeats)
+        old_person += _time(lambda: previous_replan(grid, costmap.config, live, start, goal, planner), args.repeats,
+                            cpu["old"])
         s, g = planner.cell_of(start, "s"), planner.cell_of(goal, "g")
         heap_person += _time(lambda: astar_reference(blocked_border(state.cell_cost), grid.resolution,
-                                                     s[0] * cols + s[1], g[0] * cols + g[1]), 1)
+                                                     s[0] * cols + s[1], g[0] * cols + g[1]), 1, cpu["heap"])
     print(f"part 1 — cores on the office map ({cols}x{rows} cells at {grid.resolution} m), goal {goal.tolist()}")
     print(f"  first plan (static heuristic for the goal, once)   [ms] {first:7.2f}")
     print(f"  A* replan, nobody about                            [ms] {_stats(new_free)}")
@@ -119,6 +127,7 @@ def core_bench(args) -> None:
     print(f"  previous: graph rebuild + full Dijkstra, person    [ms] {_stats(old_person)}")
     print(f"  textbook heapq A* (octile heuristic), person       [ms] {_stats(heap_person)}")
     ratio = statistics.median(old_person) / statistics.median(new_person)
+    cpu_ms = {k: statistics.median(v) for k, v in cpu.items()}
     print(f"  → A* replans {ratio:.1f}× faster than the previous Dijkstra with a person ahead, "
           f"{statistics.median(old_person) / statistics.median(new_free):.0f}× with nobody about; "
           f"target ≤ 10 ms: {'OK' if statistics.median(new_person) <= 10 else 'ABOVE'}")
@@ -139,6 +148,9 @@ def core_bench(args) -> None:
     print(f"  costmap from a {cam.width}x{cam.height} depth frame: marking + clearing [ms] {_stats(observe)}")
     print(f"  … + inflating static and live layers                [ms] {_stats(full)}")
     print(f"  DWA step (189 commands × 20 roll-out points)         [ms] {_stats(dwa)}")
+    print(f"  on this thread's CPU time, a person ahead: A* {cpu_ms['new']:.2f} ms, previous {cpu_ms['old']:.2f} ms "
+          f"({cpu_ms['old'] / cpu_ms['new']:.1f}×), textbook {cpu_ms['heap']:.2f} ms ({cpu_ms['heap'] / cpu_ms['new']:.1f}×)")
+    return {"previous_dijkstra": cpu_ms["old"] / cpu_ms["new"], "textbook_astar": cpu_ms["heap"] / cpu_ms["new"]}
 
 
 def graph_bench(args) -> int:
@@ -191,8 +203,16 @@ def graph_bench(args) -> int:
     return 0
 
 
-def run(args: argparse.Namespace) -> int:
-    core_bench(args)
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """Part 1 (and part 2 unless ``--core-only``), printed; part 1's ratios."""
+    ratios = core_bench(args)
     if not args.core_only:
-        return graph_bench(args)
+        graph_bench(args)
+    return ratios
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bench.ratios import report
+
+    report(args, measure(args))
     return 0

@@ -20,7 +20,7 @@ DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rgbd"
 
 
 # --quick (raspv_bench.bench_cli): a smoke run in seconds, run by tests/bench
-QUICK = {"frames": 6, "repeat": 1}
+QUICK = {"frames": 6, "repeat": 1, "peer_frames": 1}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,6 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--stride", type=int, default=None, help="pixel stride (default: SceneConfig's)")
     parser.add_argument("--no-sim", action="store_true", help="skip the apartment walk (no PyBullet rendering)")
     parser.add_argument("--no-peer", action="store_true", help="skip the Open3D comparison")
+    parser.add_argument("--peer-frames", type=int, default=8, help="frames per source in the comparison (default 8)")
 
 
 def _pct(values: list[float], q: float) -> float:
@@ -91,30 +92,53 @@ def _time_ours(frames, repeat: int, config) -> tuple[list[float], dict[str, list
     return totals, stages
 
 
-def _time_open3d(frames, max_planes: int = 6) -> list[float]:
-    """The PCL-style pipeline in Open3D: voxel 4 cm, normals from 16 neighbours, segment_plane
-    (0.04 m, 3 points, 300 iterations) until < 5 % of the cloud or ``max_planes``, DBSCAN."""
+def open3d_pipeline(depth, K, max_planes: int = 6) -> None:
+    """The PCL-style pipeline in Open3D on one frame: voxel 4 cm, normals from 16 neighbours,
+    segment_plane (0.04 m, 3 points, 300 iterations) until < 5 % of the cloud or ``max_planes``,
+    DBSCAN on the rest."""
     import numpy as np
     import open3d as o3d
 
-    out = []
-    for depth, K, _pose in frames:
-        t0 = time.perf_counter()
-        pts = K.backproject(np.asarray(depth, dtype=np.float32)).reshape(-1, 3)
-        pts = pts[np.isfinite(pts[:, 2]) & (pts[:, 2] > 0.2) & (pts[:, 2] < 8.0)]
-        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
-        cloud = cloud.voxel_down_sample(0.04)
-        cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(16))
-        rest, n0 = cloud, len(cloud.points)
-        for _ in range(max_planes):
-            if len(rest.points) < max(50, 0.05 * n0):
-                break
-            _, inliers = rest.segment_plane(0.04, 3, 300)
-            rest = rest.select_by_index(inliers, invert=True)
-        if len(rest.points) >= 10:
-            rest.cluster_dbscan(0.05, 10)
-        out.append(1e3 * (time.perf_counter() - t0))
-    return out
+    pts = K.backproject(np.asarray(depth, dtype=np.float32)).reshape(-1, 3)
+    pts = pts[np.isfinite(pts[:, 2]) & (pts[:, 2] > 0.2) & (pts[:, 2] < 8.0)]
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
+    cloud = cloud.voxel_down_sample(0.04)
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(16))
+    rest, n0 = cloud, len(cloud.points)
+    for _ in range(max_planes):
+        if len(rest.points) < max(50, 0.05 * n0):
+            break
+        _, inliers = rest.segment_plane(0.04, 3, 300)
+        rest = rest.select_by_index(inliers, invert=True)
+    if len(rest.points) >= 10:
+        rest.cluster_dbscan(0.05, 10)
+
+
+def part_open3d(frames, config, rounds: int) -> float:
+    """Ours and the Open3D pipeline over the same ``frames``, in alternation (``rounds`` passes
+    each); prints the times and returns the ratio (how many times faster ours is)."""
+    import open3d  # noqa: F401  (ImportError: no peer here)
+
+    from raspv_bench.ratios import side_by_side
+    from raspv_perception.scene_perception import ScenePerception
+
+    perception = ScenePerception(config)
+
+    def ours() -> None:
+        perception.reset()
+        for depth, K, _pose in frames:
+            perception.process(depth, K)
+
+    def peer() -> None:
+        for depth, K, _pose in frames:
+            open3d_pipeline(depth, K)
+
+    r = side_by_side(ours, peer, rounds=rounds)
+    n = len(frames)
+    print(f"Open3D PCL-style pipeline on {n} of these frames, in alternation with ours: {1e3 * r.peer_s / n:.1f} ms "
+          f"per frame (ours {1e3 * r.ours_s / n:.1f} ms, {r.ratio:.1f}x faster; theirs gives planes and clusters only: "
+          "no floor tracking, classes, labels or free floor)")
+    return r.ratio
 
 
 def _time_stairs(n: int) -> None:
@@ -143,18 +167,16 @@ def _time_stairs(n: int) -> None:
           f"p90 {_pct(times, 0.9):.1f} ms; staircase found in {found}/{len(frames)}")
 
 
-def run(args: argparse.Namespace) -> int:
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """The timings asked for, printed; the ratio against the Open3D pipeline run side by side
+    (``open3d``: times faster) unless ``--no-peer`` or Open3D is missing."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")       # one core, also for Open3D (read at import)
     import cv2
 
     from raspv_perception.scene_config import SceneConfig
 
     cv2.setNumThreads(1)
-    try:
-        config = SceneConfig() if args.stride is None else SceneConfig(stride=args.stride)
-    except ValueError as exc:
-        print(f"raspv bench scene: {exc}")
-        return 2
+    config = SceneConfig() if args.stride is None else SceneConfig(stride=args.stride)
     sources: dict[str, list] = {}
     if not args.no_sim:
         try:
@@ -186,15 +208,26 @@ def run(args: argparse.Namespace) -> int:
             _time_stairs(args.frames)
         except Exception as exc:             # no renderer here: say so
             print(f"(stair detection skipped: {exc})")
+    ratios: dict[str, float] = {}
     if not args.no_peer:
+        per = max(1, args.peer_frames)
+        peer_frames = [f for frames in sources.values() for f in frames[:: max(1, len(frames) // per)][:per]]
         try:
-            peer_frames = [f for frames in sources.values() for f in frames[:: max(1, len(frames) // 8)]]
-            ours, _ = _time_ours(peer_frames, 1, config)
-            peer = _time_open3d(peer_frames)
+            ratios["open3d"] = part_open3d(peer_frames, config, rounds=3)
         except ImportError as exc:
             print(f"(Open3D comparison skipped: {exc})")
-        else:
-            print(f"Open3D PCL-style pipeline on {len(peer)} of these frames: median {statistics.median(peer):.1f} ms "
-                  f"(ours {statistics.median(ours):.1f} ms, {statistics.median(peer) / statistics.median(ours):.1f}x faster; "
-                  "theirs gives planes and clusters only: no floor tracking, classes, labels or free floor)")
+    return ratios
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bench.ratios import report
+
+    from raspv_perception.scene_config import SceneConfig
+
+    try:
+        SceneConfig() if args.stride is None else SceneConfig(stride=args.stride)
+    except ValueError as exc:
+        print(f"raspv bench scene: {exc}")
+        return 2
+    report(args, measure(args))
     return 0

@@ -133,11 +133,72 @@ def part_ours(args) -> dict:
           f"simulator build {1e3 * build_s:.0f} ms, +{(rss1 - rss0) / 1e6:.0f} MB resident")
     target = "met" if med <= 2.0 else "MISSED"
     print(f"  target <= 2 ms/frame median: {target} ({med:.3f} ms, {1e3 / med:.0f} frames/s)")
-    return {"median_ms": med}
+    return {"per_phosphene_loop": part_loop(sim, b)}
 
 
-def _ours_levels_to_image(device: str, width: int, height: int, frames: int):
-    """(simulator, median seconds of temporal + render from random levels)."""
+class PerPhospheneLoop:
+    """The straightforward renderer, kept as the renderer's peer: each lit phosphene's sprite
+    patch (precomputed once, the very values of ours) added into a float image one phosphene
+    at a time, then saturated to 8 bits. Plain sprites only (one sprite per phosphene, full
+    resolution: the Gaussian presets)."""
+
+    def __init__(self, renderer) -> None:
+        import numpy as np
+
+        if renderer.levels != 1 or renderer.scale != 1 or renderer.fine is not None:
+            raise ValueError("the per-phosphene loop draws plain full-resolution sprites only")
+        m = renderer.matrix.tocsc()
+        self.shape = (renderer.height, renderer.width)
+        self.patches: list[tuple[int, int, int, int, np.ndarray] | None] = []
+        for i in range(m.shape[1]):
+            idx, val = m.indices[m.indptr[i]:m.indptr[i + 1]], m.data[m.indptr[i]:m.indptr[i + 1]]
+            if idx.size == 0:
+                self.patches.append(None)
+                continue
+            r, c = np.divmod(idx.astype(np.int64), renderer.width)
+            r0, c0 = int(r.min()), int(c.min())
+            patch = np.zeros((int(r.max()) - r0 + 1, int(c.max()) - c0 + 1), np.float32)
+            patch[r - r0, c - c0] = val
+            self.patches.append((r0, r0 + patch.shape[0], c0, c0 + patch.shape[1], patch))
+
+    def render(self, brightness):
+        import cv2
+        import numpy as np
+
+        image = np.zeros(self.shape, np.float32)
+        for b, p in zip(brightness.tolist(), self.patches):
+            if b > 0 and p is not None:
+                r0, r1, c0, c1, patch = p
+                image[r0:r1, c0:c1] += b * patch
+        return cv2.convertScaleAbs(image)
+
+
+def part_loop(sim, brightness, rounds: int = 9) -> float | None:
+    """Our renderer (one sparse product) against :class:`PerPhospheneLoop` on the same
+    brightness, timed in alternation; the two images compared. Returns the ratio (None for
+    sprite models the loop does not draw)."""
+    import numpy as np
+
+    from raspv_bench.ratios import side_by_side
+
+    try:
+        loop = PerPhospheneLoop(sim.renderer)
+    except ValueError as exc:
+        print(f"  (render vs the per-phosphene loop skipped: {exc})")
+        return None
+    ours_image, loop_image = sim.render(brightness), loop.render(brightness)
+    diff = int(np.abs(ours_image.astype(np.int16) - loop_image.astype(np.int16)).max())
+    r = side_by_side(lambda: sim.render(brightness), lambda: loop.render(brightness), rounds=rounds,
+                     ours_calls=20, peer_calls=2)
+    lit = int(np.count_nonzero(brightness > 0))
+    print(f"  render vs the per-phosphene loop (the same {lit} lit sprites pasted one by one, in alternation): "
+          f"ours {1e3 * r.ours_s:.3f} ms, loop {1e3 * r.peer_s:.2f} ms: {r.ratio:.1f}x faster; "
+          f"images differ by at most {diff} grey level(s)")
+    return r.ratio
+
+
+def _ours_levels_to_image(device: str, width: int, height: int):
+    """(simulator, one frame of ours: temporal model + render of random levels, as the peers are timed)."""
     import numpy as np
 
     from raspv_spv.config import spv_config
@@ -146,15 +207,17 @@ def _ours_levels_to_image(device: str, width: int, height: int, frames: int):
     sim = PhospheneSimulator(spv_config(device, width=width, height=height, temporal=True))
     rng = np.random.default_rng(0)
     levels = [rng.integers(0, sim.num_levels, sim.count).astype(np.uint8) for _ in range(8)]
-    times = []
-    for i in range(max(frames, 50)):
-        t0 = time.perf_counter()
-        sim.render(sim.brightness(levels[i % 8]))
-        times.append(time.perf_counter() - t0)
-    return sim, statistics.median(times)
+    frame = [0]
+
+    def ours() -> None:
+        frame[0] += 1
+        sim.render(sim.brightness(levels[frame[0] % 8]))
+
+    return sim, ours
 
 
-def part_pulse2percept(args) -> None:
+def part_pulse2percept(args) -> float | None:
+    """Part 2; the ratio (None without pulse2percept)."""
     import numpy as np
     try:
         from pulse2percept.implants.retina import AlphaIMS
@@ -162,8 +225,10 @@ def part_pulse2percept(args) -> None:
         from pulse2percept.stimuli import Stimulus
     except ImportError as exc:
         print(f"Part 2 - pulse2percept not available ({exc}); pip install pulse2percept to compare")
-        return
+        return None
     import cv2
+
+    from raspv_bench.ratios import side_by_side
 
     from raspv_spv.config import spv_config
     from raspv_spv.retinotopy import visual_field_to_image
@@ -173,7 +238,7 @@ def part_pulse2percept(args) -> None:
     # scoreboard sprites), pulse2percept's ScoreboardModel with our rho, over the same field at the
     # same resolution; our percept checked against theirs in this run
     size = args.p2p_size
-    sim, ours = _ours_levels_to_image("alpha_ims_implant", size, size, args.frames)
+    sim, ours = _ours_levels_to_image("alpha_ims_implant", size, size)
     m = sim.map
     rho = sim.config.sprite_spec().rho("retina", m)
     half = sim.config.device.fov_deg / 2
@@ -186,15 +251,14 @@ def part_pulse2percept(args) -> None:
         model.build()
     names = list(m.implant.names)
     rng = np.random.default_rng(0)
-    times = []
-    amplitudes = None
-    for _ in range(args.peer_frames):
-        amplitudes = rng.integers(0, sim.num_levels, len(names)) / (sim.num_levels - 1)
-        stim = Stimulus(dict(zip(names, amplitudes)))
-        t0 = time.perf_counter()
-        percept = model.predict_percept(stim)
-        times.append(time.perf_counter() - t0)
-    theirs = statistics.median(times)
+    last: dict = {}
+
+    def peer() -> None:
+        last["amplitudes"] = rng.integers(0, sim.num_levels, len(names)) / (sim.num_levels - 1)
+        last["percept"] = model.predict_percept(Stimulus(dict(zip(names, last["amplitudes"]))))
+
+    r = side_by_side(ours, peer, rounds=args.peer_frames, ours_calls=20)
+    amplitudes, percept = last["amplitudes"], last["percept"]
     # the same stimulus through ours (levels = amplitude x (N_L - 1), temporal model off), sampled
     # at their grid points
     check = PhospheneSimulator(spv_config("alpha_ims_implant", width=size, height=size, temporal=False))
@@ -207,15 +271,16 @@ def part_pulse2percept(args) -> None:
     print(f"Part 2 - Alpha-IMS implant, like for like: the same {len(names)} electrodes, scoreboard sprites, "
           f"rho {rho:.0f} um, {2 * half:g} deg field at {size}x{size} (theirs {percept.data.shape[1]}x"
           f"{percept.data.shape[0]}), one thread; pulse2percept 0.11 ScoreboardModel")
-    print(f"  ours (temporal + render)       {1e3 * ours:9.3f} ms/frame")
-    print(f"  pulse2percept predict_percept  {1e3 * theirs:9.1f} ms/frame")
+    print(f"  ours (temporal + render)       {1e3 * r.ours_s:9.3f} ms/frame")
+    print(f"  pulse2percept predict_percept  {1e3 * r.peer_s:9.1f} ms/frame (in alternation with ours)")
     print(f"  the same percept: correlation {agreement:.3f} between ours (8-bit image at their grid points) and theirs "
           f"for the last stimulus")
-    ratio = theirs / ours
-    print(f"  ratio {ratio:,.0f}x faster (target >= 1000x: {'met' if ratio >= 1000 else 'MISSED'})")
+    print(f"  ratio {r.ratio:,.0f}x faster (target >= 1000x: {'met' if r.ratio >= 1000 else 'MISSED'})")
+    return r.ratio
 
 
-def part_dynaphos(args) -> None:
+def part_dynaphos(args) -> float | None:
+    """Part 3; the ratio (None without dynaphos)."""
     import numpy as np
     try:
         import torch
@@ -223,10 +288,12 @@ def part_dynaphos(args) -> None:
         from dynaphos.utils import Map
     except ImportError as exc:
         print(f"Part 3 - dynaphos not available ({exc}); pip install dynaphos torch to compare")
-        return
+        return None
+    from raspv_bench.ratios import side_by_side
+
     torch.set_num_threads(1)
     size = args.dynaphos_size
-    sim, ours = _ours_levels_to_image("default", size, size, args.frames)
+    sim, ours = _ours_levels_to_image("default", size, size)
     # the same phosphenes, in degrees of visual field (dynaphos: x right, y up)
     f = sim.map.focal_px
     x = np.degrees(np.arctan((sim.map.centres[:, 0] - size / 2) / f))
@@ -238,48 +305,59 @@ def part_dynaphos(args) -> None:
     t0 = time.perf_counter()
     theirs_sim = GaussianSimulator(params, Map(x=x, y=y), rng)
     build = time.perf_counter() - t0
-    times = []
-    for _ in range(args.peer_frames):
-        amp = torch.tensor(rng.uniform(0.0, 100e-6, theirs_sim.num_phosphenes), dtype=torch.float32)
-        t0 = time.perf_counter()
-        theirs_sim(amp)
-        times.append(time.perf_counter() - t0)
-    theirs = statistics.median(times)
+
+    def peer() -> None:
+        theirs_sim(torch.tensor(rng.uniform(0.0, 100e-6, theirs_sim.num_phosphenes), dtype=torch.float32))
+
+    r = side_by_side(ours, peer, rounds=args.peer_frames, ours_calls=20)
     print(f"Part 3 - default preset: ours {sim.count} phosphenes vs dynaphos GaussianSimulator "
           f"{theirs_sim.num_phosphenes} phosphenes, output {size}x{size}, CPU torch, one thread")
-    print(f"  ours (temporal + render)       {1e3 * ours:9.3f} ms/frame")
-    print(f"  dynaphos simulator(amplitude)  {1e3 * theirs:9.1f} ms/frame (build {build:.1f} s)")
-    print(f"  ratio {theirs / ours:,.0f}x faster")
+    print(f"  ours (temporal + render)       {1e3 * r.ours_s:9.3f} ms/frame")
+    print(f"  dynaphos simulator(amplitude)  {1e3 * r.peer_s:9.1f} ms/frame (build {build:.1f} s; in alternation)")
+    print(f"  ratio {r.ratio:,.0f}x faster")
+    return r.ratio
 
 
 def quick(args: argparse.Namespace) -> None:
     """Small sizes and few frames: every part runs in seconds (figures not comparable to a full run)."""
-    args.frames, args.peer_frames = min(args.frames, 30), 1
+    args.frames, args.peer_frames = min(args.frames, 30), 3
     args.size, args.p2p_size, args.dynaphos_size = min(args.size, 200), min(args.p2p_size, 81), min(args.dynaphos_size, 64)
     args.axon_size, args.axon_p2p_size = min(args.axon_size, 160), min(args.axon_p2p_size or 41, 41)
 
 
-def run(args: argparse.Namespace) -> int:
-    from raspv_spv.device import DeviceError
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """Every part asked for; the ratios against the peers run side by side (name → times
+    faster; a peer not installed gives none): ``per_phosphene_loop``, ``pulse2percept``,
+    ``dynaphos``, ``axon_map_pulse2percept``."""
+    from raspv_bench import spv_sprite_models
 
     if args.quick:
         quick(args)
         print("raspv bench spv --quick: small sizes, few frames — a smoke run, not the speed page's figures")
+    ratios = part_ours(args)
+    if not args.no_peers:
+        ratios["pulse2percept"] = part_pulse2percept(args)
+        ratios["dynaphos"] = part_dynaphos(args)
+    if not args.no_axon:
+        ratios["axon_map_pulse2percept"] = spv_sprite_models.part_axon_map(args, _ms, _test_frames)
+    if args.sprite_presets:
+        spv_sprite_models.part_presets(args, _ms, _test_frames)
+    return {k: v for k, v in ratios.items() if v is not None}
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bench.ratios import report
+
+    from raspv_spv.config import spv_config
+    from raspv_spv.device import DeviceError
+    from raspv_spv.simulator import check_config
 
     try:
-        part_ours(args)
+        check_config(spv_config(args.device, width=args.size, mode=args.mode, temporal=not args.no_temporal))
     except (DeviceError, ValueError, KeyError) as exc:
         print(f"raspv bench spv: {exc}")
         return 2
-    if not args.no_peers:
-        part_pulse2percept(args)
-        part_dynaphos(args)
-    from raspv_bench import spv_sprite_models
-
-    if not args.no_axon:
-        spv_sprite_models.part_axon_map(args, _ms, _test_frames)
-    if args.sprite_presets:
-        spv_sprite_models.part_presets(args, _ms, _test_frames)
+    report(args, measure(args))
     return 0
 
 
