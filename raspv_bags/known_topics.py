@@ -55,7 +55,7 @@ KNOWN_TOPICS: dict[str, tuple[str, bool]] = {
     T.EXPERIMENT_INSTRUCTIONS: ("std_msgs/msg/String", True),
     T.EXPERIMENT_RESPONSE: ("std_msgs/msg/String", False),
 }
-SERVICES = frozenset({T.SIM_START_TRIAL, T.SIM_END_TRIAL})   # in raspv_common.topics, not topics
+SERVICES = frozenset({T.SIM_START_TRIAL, T.SIM_END_TRIAL, T.SLAM_SAVE_MAP})   # in raspv_common.topics, not topics
 
 
 def known_topics(wants) -> list[tuple[str, str, bool]]:

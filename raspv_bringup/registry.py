@@ -30,6 +30,8 @@ NODES: dict[str, NodeSpec] = {
     "stairs": NodeSpec("raspv_perception.stairs_node", "raspv_perception.stairs_params:PARAMS", "staircase detection from depth and the scene's floor: /stairs with pose, riser, tread, width and every step"),
     "segmentation": NodeSpec("raspv_perception.segmentation_node", "raspv_perception.segmentation_params:PARAMS", "semantic segmentation: person model with depth fusion, your ONNX/TorchScript model, or the sim's ground truth"),
     "odometry": NodeSpec("raspv_perception.odometry_node", "raspv_perception.odometry_params:PARAMS", "RGB-D odometry publishing /camera/pose for sources without a pose"),
+    "slam": NodeSpec("raspv_slam.slam_node", "raspv_slam.slam_params:PARAMS",
+                     "RGB-D SLAM: /camera/pose in the map frame, map → odom → base_link tf, tracking state, saved maps"),
     "bridge": NodeSpec("raspv_hmd.bridge_node", "raspv_hmd.bridge_params:PARAMS", "headset bridge: streams /spv/image to browser/native clients, publishes their head pose and teleop"),
     "teleop": NodeSpec("raspv_sim.teleop_node", "raspv_sim.teleop_params:PARAMS", "keyboard teleoperation of the avatar and its head (run in a terminal)"),
     "subject": NodeSpec("raspv_experiments.subject_node", "raspv_experiments.subject_params:PARAMS",

@@ -51,6 +51,7 @@ TF_STATIC = "/tf_static"                    # tf2_msgs/TFMessage, transient-loca
 # Localisation (the slam node, raspv_slam).
 SLAM_STATE = "/slam/state"                  # std_msgs/String JSON, transient-local: tracking state, keyframes, inliers
 SLAM_MARKERS = "/slam/markers"              # visualization_msgs/MarkerArray (map frame): keyframes, landmarks, loop edges
+SLAM_SAVE_MAP = "/slam/save_map"            # raspv_msgs/srv/SaveMap: save the map now
 
 CLOCK = "/clock"                            # rosgraph_msgs/Clock (bag replay; sim: simulation time)
 
