@@ -4,6 +4,7 @@
     raspv sim map WORLD -o DIR               occupancy map (map_server PGM + YAML) for planners
     raspv sim render WORLD -o OUT.png        the avatar's view (colour, depth, labels) and an overview
     raspv sim plot RUN_DIR                   summary and top-down trajectory of a logged run
+    raspv sim walk WALK -o DIR               a simulated RGB-D walk with ground truth (TUM layout)
 """
 from __future__ import annotations
 
@@ -36,6 +37,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
     p.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto")
     p.add_argument("--time", type=float, default=0.0, help="sim time for the people's positions [s]")
+    p = sub.add_parser("walk", help="render a walk (route, loops, kidnaps) as an RGB-D sequence with ground truth "
+                                    "(TUM layout: rgb/, depth/, rgb.txt, depth.txt, groundtruth.txt)")
+    p.add_argument("walk", metavar="WALK", help="a shipped walk (" + ", ".join(_shipped_walks()) + ") or a walk YAML")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="new folder for the sequence")
+    p.add_argument("--perfect-depth", action="store_true", help="noise-free depth (default: the realistic sensor model)")
+    p.add_argument("--flat", action="store_true", help="flat-coloured surfaces (default: surface textures)")
+    p.add_argument("--size", help="camera resolution WxH (default: the walk's, 640x480)")
+    p.add_argument("--loops", type=int, help="walk the route this many times (default: the walk's)")
     p = sub.add_parser("plot", help="summary and trajectory plot of a logged run (also after a kill)")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("-o", "--output", metavar="OUT.png", help="default RUN_DIR/trajectory.png")
@@ -45,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     from raspv_sim.world_spec import WorldFileError
 
     try:
-        return {"check": _check, "map": _map, "render": _render, "plot": _plot}[args.sim_command](args)
+        return {"check": _check, "map": _map, "render": _render, "plot": _plot, "walk": _walk}[args.sim_command](args)
     except (WorldFileError, ValueError) as exc:
         print(f"raspv sim: {exc}", file=sys.stderr)
         return 2
@@ -149,3 +158,47 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def _shipped_walks() -> list[str]:
+    return sorted(p.stem for p in (Path(__file__).parent / "walks").glob("*.yaml"))
+
+
+def _walk(args) -> int:
+    import dataclasses
+
+    from raspv_sim.walks import load_walk, render_walk
+
+    path = Path(args.walk)
+    if not path.suffix and not path.exists():
+        path = Path(__file__).parent / "walks" / f"{args.walk}.yaml"
+        if not path.is_file():
+            raise ValueError(f"no walk {args.walk!r}: give a walk YAML or one of {', '.join(_shipped_walks())}")
+    spec = load_walk(path)
+    changes = {"realistic_depth": not args.perfect_depth, "textures": not args.flat}
+    if args.size:
+        try:
+            w, h = (int(v) for v in args.size.lower().split("x"))
+        except ValueError:
+            raise ValueError(f"--size must be WxH, e.g. 640x480, got {args.size!r}") from None
+        changes.update(width=w, height=h)
+    if args.loops is not None:
+        changes["loops"] = args.loops
+    spec = dataclasses.replace(spec, **changes)
+    out = Path(args.output)
+    if out.exists() and any(out.iterdir()):
+        raise ValueError(f"{out}: folder exists and is not empty")
+    tty = sys.stderr.isatty()
+
+    def progress(done: int, total: int) -> None:
+        if tty and (done % 10 == 0 or done == total):
+            print(f"\rrendering {done}/{total}", end="", file=sys.stderr, flush=True)
+
+    plan = render_walk(spec, out, progress)
+    if tty:
+        print(file=sys.stderr)
+    print(f"{out}: {len(plan.poses)} frames, {plan.length_m:.1f} m walked in {spec.world}, "
+          f"back at the start at {', '.join(f'{t:.1f}' for t in plan.loop_times)} s"
+          + (f", {len(spec.kidnaps)} kidnap(s)" if spec.kidnaps else "")
+          + f"; import it: raspv bag from-frames {out} --intrinsics {out / 'intrinsics.yaml'} -o BAG")
+    return 0

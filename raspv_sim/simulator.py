@@ -46,6 +46,7 @@ class SimConfig:
     depth_sensor: DepthSensorConfig | None = None
     collision_debounce: float = 0.5
     seed: int = 0
+    textures: bool = False             # surface texture on static boxes (raspv_sim.surface_textures)
 
     def intrinsics(self) -> CameraIntrinsics:
         if not 0 < self.hfov_deg < 180:
@@ -85,7 +86,7 @@ class Simulation:
         try:
             # the EGL plugin only draws bodies created after it is loaded
             self.renderer: RendererInfo = load_renderer(self.client, self.config.renderer)
-            self.world: BuiltWorld = build_world(self.client, self.spec)
+            self.world: BuiltWorld = build_world(self.client, self.spec, self.config.textures)
             s = self.spec
             self.avatar = Avatar(self.world, self.config.avatar, s.spawn_position[0], s.spawn_position[1],
                                  math.radians(s.spawn_yaw))

@@ -19,6 +19,7 @@ from raspv_sim.native_output import captured_native_output
 from raspv_sim.people import SKIN, TROUSERS, WaypointLoop, capsule_person_parts
 from raspv_sim.primitives import Part, SolidObject
 from raspv_sim.staircase import floor_hole, staircase_solid
+from raspv_sim.surface_textures import kind_of, part_seed, textured_box_obj
 from raspv_sim.walls import wall_solids
 from raspv_sim.world_spec import ModelSpec, PersonSpec, WorldFileError, WorldSpec, display_path
 
@@ -89,8 +90,12 @@ class BuiltWorld:
 
 
 class _ShapeCache:
-    def __init__(self, client):
+    """Collision and visual shapes shared by parts of equal size (and colour); with ``textures``
+    static boxes are drawn with their class's surface texture (:mod:`raspv_sim.surface_textures`)."""
+
+    def __init__(self, client, textures: bool = False):
         self.c = client
+        self.textures = textures
         self.collision: dict = {}
         self.visual: dict = {}
 
@@ -115,9 +120,18 @@ class _ShapeCache:
             self.collision[key] = self.c.createCollisionShape(geom, **kw)
         return self.collision[key]
 
-    def visual_shape(self, part: Part) -> int:
+    def visual_shape(self, part: Part, cls: str = "") -> int:
         if not part.visible:
             return -1
+        if self.textures and part.shape == "box":
+            kind = kind_of(cls)           # walls: one texture each; floor and furniture: a few shared ones
+            seed = 0 if kind == "floor" else part_seed(part.position, part.size) % (4 if kind == "other" else 2**32)
+            key = ("textured", part.size, part.color, kind, seed)
+            if key not in self.visual:
+                obj = textured_box_obj(part.size, cls, part.color, seed)
+                self.visual[key] = self.c.createVisualShape(pybullet.GEOM_MESH, fileName=str(obj),
+                                                            specularColor=[0.0, 0.0, 0.0])
+            return self.visual[key]
         key = (part.shape, part.size, part.color)
         if key not in self.visual:
             geom, kw = self._args(part)
@@ -135,7 +149,7 @@ def _solid_body(c, shapes: _ShapeCache, obj: SolidObject, origin=(0.0, 0.0, 0.0)
         baseMass=0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=-1, basePosition=list(origin),
         linkMasses=[0.0] * n,
         linkCollisionShapeIndices=[shapes.collision_shape(p) for p in obj.parts],
-        linkVisualShapeIndices=[shapes.visual_shape(p) for p in obj.parts],
+        linkVisualShapeIndices=[shapes.visual_shape(p, obj.cls) for p in obj.parts],
         linkPositions=[[p.position[0] + inv_pos[0], p.position[1] + inv_pos[1], p.position[2] + inv_pos[2]] for p in obj.parts],
         linkOrientations=[list(p.quaternion) for p in obj.parts],
         linkInertialFramePositions=[[0.0, 0.0, 0.0]] * n, linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * n,
@@ -153,11 +167,12 @@ def static_solids(spec: WorldSpec) -> list[SolidObject]:
     return solids
 
 
-def build_world(client, spec: WorldSpec) -> BuiltWorld:
-    """Create every body of ``spec`` in ``client`` (a connected PyBullet client)."""
+def build_world(client, spec: WorldSpec, textures: bool = False) -> BuiltWorld:
+    """Create every body of ``spec`` in ``client`` (a connected PyBullet client); ``textures``
+    draws static boxes with surface texture instead of flat colour."""
     world = BuiltWorld(client, spec)
     world.holes = [h for h in (floor_hole(s) for s in spec.stairs) if h is not None]
-    shapes = _ShapeCache(client)
+    shapes = _ShapeCache(client, textures)
     for obj in static_solids(spec):
         if not obj.parts:
             continue
