@@ -493,6 +493,9 @@ def _from_frames(args: argparse.Namespace) -> int:
         elif args.camera:
             fx, fy, cx, cy = CAMERA_PRESETS[args.camera]
             intr = {"fx": fx, "fy": fy, "cx": cx, "cy": cy, "width": 640, "height": 480}
+        elif args.source and (Path(args.source) / "intrinsics.yaml").is_file():     # the folder's own
+            intr = load_intrinsics_file(Path(args.source) / "intrinsics.yaml")
+            print(f"intrinsics from {Path(args.source) / 'intrinsics.yaml'}", file=sys.stderr)
         else:
             intr = None
         print(f"{len(frames.pairs)} frames ({frames.layout} layout, depth {frames.depth_format})", file=sys.stderr)

@@ -59,9 +59,7 @@ class PlannerNode(RaspvNode):
         goal = self._goal_position(p)
         if isinstance(goal, str):
             raise ConfigurationError(goal)
-        if len(p["map_from_odom"]) != 3:
-            raise ConfigurationError(f"map_from_odom must be [x, y, yaw_deg], got {p['map_from_odom']}")
-        x, y, yaw_deg = p["map_from_odom"]
+        x, y, yaw_deg = self._map_from_odom(p)
         try:
             self.assistant = NavigationAssistant(grid, goal, assistant_config(p),
                                                  MapAlignment((x, y, math.radians(yaw_deg))))
@@ -98,7 +96,7 @@ class PlannerNode(RaspvNode):
         self.publish_global_costmap()
         self.get_logger().info(f"building map from {p['map'] or p['world']} ({grid.shape[1]}x{grid.shape[0]} cells at "
                                f"{grid.resolution} m), goal {p['goal_name'] or ''} {np.round(goal, 2).tolist()}, "
-                               f"map_from_odom {list(p['map_from_odom'])}")
+                               f"map_from_odom {[round(x, 3), round(y, 3), round(yaw_deg, 2)]}")
 
     @staticmethod
     def _load_building(p: dict):
@@ -121,6 +119,32 @@ class PlannerNode(RaspvNode):
         except WorldFileError as exc:
             raise ConfigurationError(str(exc)) from None
         return grid, goals
+
+    def _map_from_odom(self, p: dict) -> tuple[float, float, float]:
+        """(x, y [m], yaw [deg]) of the pose frame on the building map: ``map_from_odom`` when set,
+        else the alignment stored with ``slam_map``, else identity."""
+        if len(p["map_from_odom"]) != 3:
+            raise ConfigurationError(f"map_from_odom must be [x, y, yaw_deg], got {p['map_from_odom']}")
+        manual = tuple(float(v) for v in p["map_from_odom"])
+        if not p["slam_map"]:
+            return manual
+        if any(manual):
+            self.get_logger().info(f"map_from_odom {list(manual)} overrides the alignment stored with {p['slam_map']}")
+            return manual
+        from raspv_slam.building_map import building_map_sha256, load_alignment
+        from raspv_slam.map_store import SlamMapError
+
+        try:
+            stored = load_alignment(p["slam_map"])
+        except SlamMapError as exc:
+            raise ConfigurationError(str(exc)) from None
+        if p["map"] and stored.building_sha256 and building_map_sha256(p["map"]) != stored.building_sha256:
+            self.get_logger().warning(f"{p['slam_map']} was aligned to {stored.building_map}, not to {p['map']} "
+                                      "(the files differ): align it again with raspv slam align")
+        a = stored.alignment
+        self.get_logger().info(f"map frame placed on the building map by {p['slam_map']}'s alignment "
+                               f"(score {a.score:.2f}, {a.matched:.0%} of its walls on the building's)")
+        return a.x, a.y, a.yaw_deg
 
     def _goal_position(self, p: dict):
         """Goal (x, y) in the map frame from goal_name or goal; a string explains what is wrong."""

@@ -200,5 +200,5 @@ def _walk(args) -> int:
     print(f"{out}: {len(plan.poses)} frames, {plan.length_m:.1f} m walked in {spec.world}, "
           f"back at the start at {', '.join(f'{t:.1f}' for t in plan.loop_times)} s"
           + (f", {len(spec.kidnaps)} kidnap(s)" if spec.kidnaps else "")
-          + f"; import it: raspv bag from-frames {out} --intrinsics {out / 'intrinsics.yaml'} -o BAG")
+          + f"; import it: raspv bag from-frames {out} -o BAG")
     return 0

@@ -73,7 +73,7 @@ def sim_config(p: dict) -> SimConfig:
     return SimConfig(width=p["width"], height=p["height"], hfov_deg=p["hfov_deg"], margin_deg=p["margin_deg"],
                      near=p["near"], far=p["far"],
                      renderer=p["renderer"], avatar=avatar, depth_sensor=depth_sensor_config(p),
-                     collision_debounce=p["collision_debounce"], seed=p["seed"])
+                     collision_debounce=p["collision_debounce"], seed=p["seed"], textures=p["textures"])
 
 
 class SimNode(SimGazeLog, RaspvNode):

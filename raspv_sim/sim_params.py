@@ -28,6 +28,8 @@ PARAMS = [
           minimum=0.0, maximum=10.0, unit="s"),
     Param("publish_labels", True, "publish ground-truth class ids on /sim/labels (rendered only while someone subscribes)"),
     Param("depth_noise", False, "degrade depth like a real sensor (noise, quantisation, missing pixels)"),
+    Param("textures", False, "surface texture on walls (plaster, notices), floor (tiles) and furniture instead of flat "
+          "colour: what feature-based localisation (the slam node) needs; labels unchanged", dynamic=False),
     Param("depth_noise_at_1m", 0.0014, "axial depth noise sigma at 1 m (grows with z squared)", minimum=0.0,
           maximum=0.05, unit="m"),
     Param("depth_subpixel", 8.0, "disparity quantisation steps per pixel (0: off)", minimum=0.0, maximum=64.0),

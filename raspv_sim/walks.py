@@ -98,7 +98,7 @@ class WalkPlan:
 
 def load_walk(path: str | Path) -> WalkSpec:
     """A walk from YAML (the keys of :class:`WalkSpec`; kidnaps as a list of mappings)."""
-    data = read_yaml_file(path, "walk")
+    data = read_yaml_file(path, "walk", WalkError)
     if not isinstance(data, dict):
         raise WalkError(f"{path}: expected a mapping with world and waypoints")
     try:

@@ -8,6 +8,7 @@ A map folder holds::
     pose_graph.npz    edges a ← b with their kind (odometry, covisibility, loop)
     vocabulary.npy    the bag-of-binary-words vocabulary (when the map had one)
     occupancy.yaml    floor-projected occupancy, map_server YAML + PGM (when anchored to a floor)
+    building_alignment.yaml   where the map sits on a building map (raspv slam align; kept on re-save)
 
 Arrays are stored without pickling. A map is written into a temporary folder beside the target
 and renamed over it, so a killed process leaves the old map or the new one, never half of one.
@@ -35,6 +36,7 @@ from raspv_slam.slam_map import EDGE_KINDS, Edge, SlamMap
 FORMAT = "raspv-slam-map"
 VERSION = 1
 MAPS_DIR_ENV = "RASPV_MAPS_DIR"
+KEPT_ON_SAVE = ("building_alignment.yaml",)   # files other tools add to a map folder, kept when it is saved again
 
 
 class SlamMapError(ValueError):
@@ -115,6 +117,9 @@ def save_map(slam_map: SlamMap, path: str | Path) -> Path:
             "loop_edges": sum(e.kind == "loop" for e in edges), "vocabulary_words": 0 if words is None else len(words),
             "config": slam_map.config.as_dict()}
     (tmp / "map.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
+    for name in KEPT_ON_SAVE:
+        if (target / name).is_file():
+            shutil.copy2(target / name, tmp / name)
     old = target.with_name(f".{target.name}.old-{os.getpid()}")
     if target.exists():
         target.rename(old)

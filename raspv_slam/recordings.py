@@ -25,6 +25,9 @@ CAMERA_DISTORTION: dict[str, tuple[float, ...]] = {
 }
 
 
+INTRINSICS_FILE = "intrinsics.yaml"      # a frames folder's own intrinsics (fx, fy, cx, cy [, width, height])
+
+
 class RecordingError(ValueError):
     """A recording that cannot be read (one line saying why and what to pass)."""
 
@@ -85,6 +88,9 @@ def _open_frames(path: Path, values: dict | None, camera: str | None, distortion
     except FramesError as exc:
         raise RecordingError(str(exc)) from None
     preset = camera or fs.camera_hint
+    if values is None and (path / INTRINSICS_FILE).is_file():       # e.g. a `raspv sim walk` sequence
+        values = load_intrinsics_file(path / INTRINSICS_FILE)
+        preset = camera
     if values is None:
         if preset is None:
             raise RecordingError(f"{path}: no camera intrinsics; give --camera {'|'.join(CAMERA_PRESETS)} "
