@@ -95,7 +95,7 @@ def levels_bench(width: int = 800, frames: int = 24, rounds: int = 7) -> dict[st
     as PNG (:class:`~raspv_hmd.frame_encoding.OutgoingFrame`); timed in alternation. Returns
     ``levels_vs_png_time`` (times faster) and ``levels_vs_png_bytes`` (times smaller)."""
     from raspv_bench.ratios import side_by_side
-    from raspv_bench.spv import _test_frames
+    from raspv_bench.spv import rgbd_test_frames
     from raspv_hmd import levels_stream
     from raspv_hmd import protocol as P
     from raspv_hmd.frame_encoding import OutgoingFrame
@@ -105,7 +105,7 @@ def levels_bench(width: int = 800, frames: int = 24, rounds: int = 7) -> dict[st
     from raspv_spv.simulator import PhospheneSimulator
 
     sim = PhospheneSimulator(spv_config("default", width=width, mode="grey", temporal=True))
-    pairs, camera, source = _test_frames()
+    pairs, camera, source = rgbd_test_frames()
     color, depth = pairs[0]
     shown = []
     for i in range(frames):                                 # the frame drifts 2 px a frame

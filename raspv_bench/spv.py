@@ -68,7 +68,7 @@ def _ms(samples: list[float]) -> tuple[float, float]:
     return 1e3 * statistics.median(v), 1e3 * v[min(len(v) - 1, int(round(0.95 * (len(v) - 1))))]
 
 
-def _test_frames():
+def rgbd_test_frames():
     """Two real frames (TUM desk, and the same shifted 12 px) so every frame changes."""
     import numpy as np
 
@@ -104,7 +104,7 @@ def part_ours(args) -> dict:
     sim = PhospheneSimulator(spv_config(args.device, width=args.size, mode=args.mode, temporal=not args.no_temporal))
     build_s = time.perf_counter() - t0
     rss1 = psutil.Process().memory_info().rss
-    frames, camera, source = _test_frames()
+    frames, camera, source = rgbd_test_frames()
     inputs = [FrameInputs(color=c, depth=d, camera=camera) for c, d in frames]
     for i in range(20):
         sim.step(inputs[i % 2])
@@ -339,9 +339,9 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
         ratios["pulse2percept"] = part_pulse2percept(args)
         ratios["dynaphos"] = part_dynaphos(args)
     if not args.no_axon:
-        ratios["axon_map_pulse2percept"] = spv_sprite_models.part_axon_map(args, _ms, _test_frames)
+        ratios["axon_map_pulse2percept"] = spv_sprite_models.part_axon_map(args, _ms, rgbd_test_frames)
     if args.sprite_presets:
-        spv_sprite_models.part_presets(args, _ms, _test_frames)
+        spv_sprite_models.part_presets(args, _ms, rgbd_test_frames)
     return {k: v for k, v in ratios.items() if v is not None}
 
 
