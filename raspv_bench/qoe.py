@@ -116,12 +116,10 @@ def run(args: argparse.Namespace) -> int:
     if not os.path.exists(CHROMIUM):
         print(f"raspv bench qoe: needs Debian's chromium at {CHROMIUM} (apt-get install -y chromium)")
         return 2
-    try:
-        from playwright.sync_api import Error as BrowserError
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        print("raspv bench qoe: needs the playwright Python package (pip install playwright)")
-        return 2
+    from raspv_common.extras import require
+
+    playwright = require("playwright.sync_api", "raspv bench qoe")
+    BrowserError, sync_playwright = playwright.Error, playwright.sync_playwright
     minutes = 20 / 60 if args.quick else args.minutes
     steps = min(args.steps, 3) if args.quick else args.steps
     overrides = ["bridge.port:=0", "bridge.tcp_port:=-1", *args.set]

@@ -97,6 +97,9 @@ def open3d_pipeline(depth, K, max_planes: int = 6) -> None:
     segment_plane (0.04 m, 3 points, 300 iterations) until < 5 % of the cloud or ``max_planes``,
     DBSCAN on the rest."""
     import numpy as np
+    from raspv_common.native_libs import ensure_libusb
+
+    ensure_libusb()
     import open3d as o3d
 
     pts = K.backproject(np.asarray(depth, dtype=np.float32)).reshape(-1, 3)

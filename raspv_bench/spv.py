@@ -282,13 +282,17 @@ def part_pulse2percept(args) -> float | None:
 def part_dynaphos(args) -> float | None:
     """Part 3; the ratio (None without dynaphos)."""
     import numpy as np
+
+    from raspv_common.extras import MissingExtra, require
     try:
-        import torch
-        from dynaphos.simulator import GaussianSimulator
-        from dynaphos.utils import Map
-    except ImportError as exc:
-        print(f"Part 3 - dynaphos not available ({exc}); pip install dynaphos torch to compare")
+        torch = require("torch", "the dynaphos comparison")
+        require("dynaphos", "the dynaphos comparison")
+    except MissingExtra as exc:
+        print(f"Part 3 - dynaphos not available: {exc}")
         return None
+    from dynaphos.simulator import GaussianSimulator
+    from dynaphos.utils import Map
+
     from raspv_bench.ratios import side_by_side
 
     torch.set_num_threads(1)

@@ -19,6 +19,8 @@ import os
 import statistics
 import time
 
+from raspv_common.extras import require
+
 PEER_MAX_GB = 1.0       # dynaphos holds N dense H×W maps (float32) and temporaries of their size
 
 
@@ -71,7 +73,7 @@ def part_fidelity(args) -> bool:
 
 
 def part_twin(args) -> dict[str, float]:
-    import torch
+    torch = require("torch", "raspv bench twin")
 
     from raspv_learn.temporal_twin import TemporalTwin
     from raspv_learn.twin import PhospheneTwin
@@ -109,13 +111,17 @@ def part_dynaphos(args, ours: dict[str, float]) -> float | None:
     """Part 2, printed; the ratio at the first setting (twin forward frames/s ÷ dynaphos', the
     two timed in alternation), None without dynaphos."""
     import numpy as np
+
+    from raspv_common.extras import MissingExtra
     try:
-        import torch
-        from dynaphos.simulator import GaussianSimulator
-        from dynaphos.utils import Map
-    except ImportError as exc:
-        print(f"Part 2 - dynaphos not available ({exc}); pip install dynaphos to compare")
+        torch = require("torch", "the dynaphos comparison")
+        require("dynaphos", "the dynaphos comparison")
+    except MissingExtra as exc:
+        print(f"Part 2 - dynaphos not available: {exc}")
         return None
+    from dynaphos.simulator import GaussianSimulator
+    from dynaphos.utils import Map
+
     from raspv_bench.ratios import side_by_side
     from raspv_bench.spv import DYNAPHOS_PARAMS
     from raspv_learn.twin import PhospheneTwin
@@ -169,7 +175,7 @@ def part_dynaphos(args, ours: dict[str, float]) -> float | None:
 def measure(args: argparse.Namespace) -> dict[str, float]:
     """The parts asked for, printed; the twin's ratio against dynaphos (``dynaphos``: times
     faster per frame, forward) when it runs."""
-    import torch
+    torch = require("torch", "raspv bench twin")
 
     for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, str(args.threads))

@@ -10,11 +10,14 @@ import importlib
 import os
 import sys
 
+from raspv_common.extras import MissingExtra
+
 # name → (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "launch": ("raspv_bringup.launch_cli", "start a node graph from a YAML file and supervise it"),
     "export-launch": ("raspv_bringup.export_launch_cli", "write a graph as a ros2 launch file (system ROS 2, colcon build)"),
     "demo": ("raspv_bringup.demo_cli", "run the virtual-world demo graph (config/demo.yaml)"),
+    "doctor": ("raspv_bringup.doctor_cli", "what this machine can do: Python, ROS, browser, cameras, extras, disk, CPU"),
     "topics": ("raspv_bringup.introspect_cli", "list topics and their types"),
     "hz": ("raspv_bringup.introspect_cli", "measure the publishing rate of a topic"),
     "echo": ("raspv_bringup.introspect_cli", "print messages of a topic"),
@@ -49,15 +52,18 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
-    parser = build_parser(command if command in COMMANDS else None)
-    args = parser.parse_args(argv)
-    if not getattr(args, "command", None):
-        parser.print_help()
-        return 0
-    mod = args._module
-    runner = getattr(mod, f"run_{args._name.replace('-', '_')}", None) or mod.run
     try:
+        parser = build_parser(command if command in COMMANDS else None)
+        args = parser.parse_args(argv)
+        if not getattr(args, "command", None):
+            parser.print_help()
+            return 0
+        mod = args._module
+        runner = getattr(mod, f"run_{args._name.replace('-', '_')}", None) or mod.run
         return int(runner(args) or 0)
+    except MissingExtra as exc:  # an optional package this command needs: the line names its install
+        print(f"raspv {command}: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # output piped into `head` & co. that stopped reading

@@ -30,10 +30,11 @@ import yaml
 
 from raspv_bringup.file_kinds import check_files as check_named_files
 from raspv_bringup.registry import NODES, schema_for
+from raspv_common import shipped
 from raspv_common.text_files import read_yaml_file
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-CONFIG_DIR = REPO_ROOT / "config"
+CONFIG_DIR = shipped.CONFIG_DIR    # the checkout's config/, or the installed wheel's copy
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _NODE_KEYS = {"kind", "name", "restart", "spare", "env"}
 GLOBAL_PARAMS = {"use_sim_time": False}  # accepted for every node (ROS built-in)

@@ -11,7 +11,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping
 
-CONFIG_DIR = Path(__file__).resolve().parents[1] / "config"
+from raspv_common import shipped
+
+CONFIG_DIR = shipped.CONFIG_DIR
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "LP_NUM_THREADS")
 SHM_PROFILE = CONFIG_DIR / "fastdds_shm.xml"
 MULTIHOST_PROFILE = CONFIG_DIR / "fastdds_multihost.xml"

@@ -26,12 +26,12 @@ import yaml
 
 from raspv_bringup.middleware import middleware_env
 from raspv_bringup.supervisor import stop_with_parent   # the launcher stops its nodes when a test or bench dies
+from raspv_common.extras import installed_extras
 from raspv_common.ros_domains import lock_free_domain
 
 PARAM_RETRY_S = 5.0       # a parameter request without an answer is sent again after this [s]
 
 _domain_lock = None
-INSTALL_STAMP = ".raspv-install-stamp"     # written by tools/install.sh into the venv it completed
 
 
 CHROMIUM = "/usr/bin/chromium"          # Debian's chromium: the browser tests and `raspv bench qoe` drive it
@@ -40,10 +40,11 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
 
 
 def dev_requirement(module: str, package: str | None = None) -> Any:
-    """Import ``module`` of a test dependency (``package``, requirements/dev.txt). On an
-    environment ``make install`` completed (its stamp in ``sys.prefix``) a missing or broken one
-    fails the test — the install checks they import, so its tests must run, not skip; elsewhere
-    (a bare ``pip install -e .``) the test is skipped with the reason."""
+    """Import ``module`` of a test dependency (``package``, requirements/dev.txt or an extra). On
+    an environment ``make install`` completed with the dev extra (``make test``; its stamp in
+    ``sys.prefix``) a missing or broken one fails the test — the install checks they import, so
+    its tests must run, not skip; elsewhere (the default install, a bare ``pip install -e .``)
+    the test is skipped with the reason."""
     import importlib
 
     import pytest
@@ -52,10 +53,10 @@ def dev_requirement(module: str, package: str | None = None) -> Any:
     try:
         return importlib.import_module(module)
     except ImportError as exc:
-        if (Path(sys.prefix) / INSTALL_STAMP).exists():
+        if "dev" in (installed_extras() or ()):
             pytest.fail(f"{package} (requirements/dev.txt) does not import in this environment make install set up: "
-                        f"{exc}; run make install again", pytrace=False)
-        pytest.skip(f"{package} (requirements/dev.txt) is not installed: pip install -r requirements/dev.txt")
+                        f"{exc}; run make install EXTRAS=dev again", pytrace=False)
+        pytest.skip(f"{package} (requirements/dev.txt) is not installed: make install EXTRAS=dev")
 
 
 def claim_private_domain(low: int = 30, high: int = 160) -> int:

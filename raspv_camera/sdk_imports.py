@@ -14,13 +14,13 @@
 from __future__ import annotations
 
 import glob
-import importlib
 import os
 import threading
 
 from raspv_camera.rgbd_frame import SdkMissing
+from raspv_common.extras import MissingExtra, install_command, require
+from raspv_common.native_libs import ensure_libusb
 
-PIP_EXTRA = "pip install 'raspv[cameras]'"
 OPENNI2_APT = "sudo apt-get install libopenni2-0"
 OPENNI2_LIBRARY = "libOpenNI2.so.0"
 OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib/arm-linux-gnueabihf",
@@ -29,13 +29,16 @@ _lock = threading.Lock()
 
 
 def _import(module: str, pip_name: str):
+    ensure_libusb()   # pyrealsense2 links libusb-1.0
     try:
-        return importlib.import_module(module)
+        return require(module, f"the {pip_name} SDK")
+    except MissingExtra as exc:
+        raise SdkMissing(str(exc)) from None
     except ImportError as exc:
         if "libusb" in str(exc):
             raise SdkMissing(f"{pip_name} cannot load libusb-1.0 ({exc}); run `make install` again, or "
                              f"sudo apt-get install libusb-1.0-0") from None
-        raise SdkMissing(f"the {pip_name} SDK is not installed: {PIP_EXTRA} (or pip install {pip_name})") from None
+        raise SdkMissing(f"the {pip_name} SDK does not import ({exc}); reinstall it: {install_command('cameras')}") from None
 
 
 def realsense():

@@ -26,6 +26,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from raspv_common import shipped
 from raspv_experiments.learned_policy import GRID, goal_features
 from raspv_experiments.navigate_policy import Navigate, _wrap
 from raspv_experiments.policies import PhospheneLayout, PolicyConfig
@@ -58,7 +59,6 @@ class DemoRecipe:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-REPO = Path(__file__).resolve().parent.parent
 # The representation the shipped learned patient is trained on: the obstacle course protocol's
 # (experiments/obstacle_course.yaml: depth, 26 x 26 phosphenes requested on a rectangular grid in 35 deg).
 DEFAULT_SPV = {"device": "default", "mode": "depth", "temporal": False, "max_depth": 3.0, "fov_deg": 35.0,
@@ -68,7 +68,7 @@ DEFAULT_SPV = {"device": "default", "mode": "depth", "temporal": False, "max_dep
 def default_recipe(episodes_per_task: int = 12, seed: int = 1) -> DemoRecipe:
     """The shipped tasks' worlds, from their protocols' starts to their goals: the obstacle course,
     the example's hallway past the crate, the office corridor to the bin in the meeting room."""
-    worlds = REPO / "experiments" / "worlds"
+    worlds = shipped.EXPERIMENTS_DIR / "worlds"
     tasks = [DemoTask(str(worlds / "obstacle_course.yaml"), (1.0, 1.5, 0.0), (24.0, 1.5, 1.6), 90.0),
              DemoTask(str(worlds / "hallway.yaml"), (1.0, 2.1, 0.0), (8.6, 1.5, 0.8), 40.0),
              DemoTask("office", (10.5, 6.0, 0.0), (19.6, 11.6, 1.3), 60.0)]

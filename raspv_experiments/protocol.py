@@ -21,10 +21,11 @@ import yaml
 
 from raspv_bringup.graph import Graph, GraphError, graph_from_doc, load_graph, resolve_graph_path
 from raspv_bringup.registry import schema_for
+from raspv_common import shipped
 from raspv_common.text_files import read_text_file
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-EXPERIMENTS_DIR = REPO_ROOT / "experiments"
+EXPERIMENTS_DIR = shipped.EXPERIMENTS_DIR    # the checkout's experiments/, or the installed wheel's copy
 ORDERS = ("fixed", "random", "latin_square")
 BLOCKS = ("condition", "none")
 WITHIN = ("fixed", "random")

@@ -43,12 +43,12 @@ from typing import Any
 import yaml
 
 from raspv_bringup.registry import schema_for
+from raspv_common.extras import require
 from raspv_experiments.protocol import Protocol, ProtocolError, parse_protocol, resolve_protocol_path
 from raspv_experiments.subject_params import POLICY_NAMES
 
 _KEYS = {"name", "protocol", "policy", "subjects", "factors", "conditions", "tasks", "repetitions", "subject_params",
          "workers", "graph_overrides", "time_limit"}
-RAY_HINT = "pip install 'ray[default]>=2.40' (or: .venv/bin/pip install -e '.[cluster]')"
 
 
 @dataclass
@@ -380,10 +380,7 @@ def _finished(result: dict[str, Any], say) -> dict[str, Any]:
 
 
 def _run_on_ray(jobs: list[tuple], address: str, say) -> list[dict[str, Any]]:
-    try:
-        import ray
-    except ImportError:
-        raise SystemExit(f"raspv experiment sweep --ray: Ray is not installed; {RAY_HINT}") from None
+    ray = require("ray", "raspv experiment sweep --ray")
     if not ray.is_initialized():
         if address in ("", "local"):
             ray.init(num_cpus=max(1, (os.cpu_count() or 2)), include_dashboard=False, log_to_driver=False)

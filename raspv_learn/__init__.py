@@ -5,3 +5,8 @@ requirements/learn.txt). Importing the package itself imports nothing heavy; the
 the ``learned`` representation mode — runs the exported ONNX encoder with onnxruntime in
 :mod:`raspv_spv.modes.learned` and never imports this package's torch modules. docs/learn.md.
 """
+
+from raspv_common.extras import require
+
+# every module here needs torch: without the `learn` extra, one line naming its install command
+require("torch", "raspv_learn (learned encoders)")

@@ -87,6 +87,9 @@ class DenseRegistration:
     chains, and the refinement step of ``raspv_slam``'s tracker."""
 
     def __init__(self, config: OdometryConfig | None = None) -> None:
+        from raspv_common.native_libs import ensure_libusb
+
+        ensure_libusb()             # Open3D links libusb-1.0
         import open3d as o3d        # heavy: imported when registration is used
 
         self._o3d = o3d

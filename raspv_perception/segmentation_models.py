@@ -22,6 +22,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from raspv_common.extras import MissingExtra, require
 from raspv_perception.class_table import ClassTable
 from raspv_perception.model_spec import ModelError, ModelSpec, load_model_spec
 
@@ -207,10 +208,9 @@ class TorchScriptModel(_SpecModel):
     def __init__(self, spec: ModelSpec, threads: int = 1) -> None:
         super().__init__(spec)
         try:
-            import torch
-        except ImportError:
-            raise ModelError("the torchscript backend needs PyTorch, which is not installed: "
-                             "pip install torch==2.13.0 (CPU build)") from None
+            torch = require("torch", "the torchscript backend")
+        except MissingExtra as exc:
+            raise ModelError(str(exc)) from None
         self._torch = torch
         torch.set_num_threads(max(1, int(threads)))
         try:

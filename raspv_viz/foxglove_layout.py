@@ -14,13 +14,12 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 
 import foxglove.layouts as fl
 
-from raspv_common import frames, topics
+from raspv_common import frames, shipped, topics
 
-LAYOUT_FILE = Path(__file__).resolve().parents[1] / "config" / "foxglove_layout.json"
+LAYOUT_FILE = shipped.CONFIG_DIR / "foxglove_layout.json"
 LATENCY = "/raspv/latency"
 SYSINFO = "/sysinfo"
 MARKER_TOPICS = (topics.VIZ_SCENE, topics.VIZ_STAIRS, topics.VIZ_PATH, topics.VIZ_PHOSPHENES)

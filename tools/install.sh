@@ -2,6 +2,11 @@
 # One-command install of RASPV-py into .venv: ROS 2 Jazzy wheels from PyPI (no system ROS),
 # the Python dependencies, raspv_msgs and tf2_msgs built with cmake into the venv, and the project itself
 # (editable). Re-running it when nothing changed only compares two stamps.
+#
+#   tools/install.sh [EXTRA ...]     EXTRA: learn cameras cluster dev (dev = all of them + test tools)
+#
+# Without an extra: what the demo, graphs, recordings and experiments need. Extras installed
+# once stay installed (the stamp lists them); `make test` installs dev.
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -12,6 +17,30 @@ MSG_STAMP=$VENV/.raspv-msgs-stamp
 
 say() { echo "raspv install: $*"; }
 die() { echo "raspv install: $*" >&2; exit 1; }
+
+# --- which extras ---------------------------------------------------------------------------
+KNOWN_EXTRAS="learn cameras cluster dev"
+REQUESTED=""
+for extra in "$@" ${EXTRAS:-}; do
+  extra=${extra//,/ }
+  for e in $extra; do
+    [ "$e" = all ] && e=dev
+    case " $KNOWN_EXTRAS " in *" $e "*) ;; *) die "unknown extra '$e' (known: $KNOWN_EXTRAS)";; esac
+    REQUESTED="$REQUESTED $e"
+  done
+done
+# dev is everything the tests use: the other extras too
+case " $REQUESTED " in *" dev "*) REQUESTED="$REQUESTED learn cameras cluster";; esac
+# the extras already in the venv (the stamp's second line; a stamp without one is from the
+# install that put everything in)
+HAD=""
+if [ -f "$STAMP" ]; then
+  { read -r _ || true; read -r HAD || HAD="learn cameras cluster dev"; } < "$STAMP"
+fi
+# (plain bash: the prerequisite checks below must be reached with nothing but bash on the PATH)
+WANT=""
+for e in $KNOWN_EXTRAS; do case " $HAD $REQUESTED " in *" $e "*) WANT="$WANT $e";; esac; done
+WANT=${WANT# }
 # pip with its exit status (pipefail), without the warning it prints per package for index
 # folders this machine's pip.conf names but lacks
 quiet_pip() { "$VPY" -m pip "$@" 2>&1 | { grep -v -E "is ignored: it is neither a file nor a directory" || true; }; }
@@ -42,10 +71,13 @@ hash_of() { cat "$@" | sha256sum | cut -c1-16; }
 # The editable install maps each top-level package (raspv_*) by name: a new package reinstalls.
 DEPS_HASH=$( { cat "$ROOT"/requirements/*.txt "$ROOT/pyproject.toml" "$ROOT/tools/install.sh";
                cd "$ROOT" && ls -d raspv_*/; } | sha256sum | cut -c1-16)
+# the messages are rebuilt when they or the ROS wheels they are built against change
 MSGS_HASH=$(cd "$ROOT" && hash_of raspv_msgs/CMakeLists.txt raspv_msgs/package.xml raspv_msgs/msg/*.msg raspv_msgs/srv/*.srv \
-                                  tf2_msgs/CMakeLists.txt tf2_msgs/package.xml tf2_msgs/msg/*.msg)
-if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$DEPS_HASH" ] && [ -f "$MSG_STAMP" ] && [ "$(cat "$MSG_STAMP")" = "$MSGS_HASH" ]; then
-  say "up to date ($VENV)"
+                                  tf2_msgs/CMakeLists.txt tf2_msgs/package.xml tf2_msgs/msg/*.msg requirements/ros.txt)
+STAMPED="$DEPS_HASH
+${WANT:--}"
+if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$STAMPED" ] && [ -f "$MSG_STAMP" ] && [ "$(cat "$MSG_STAMP")" = "$MSGS_HASH" ]; then
+  say "up to date ($VENV${WANT:+; extras: $WANT})"
   exit 0
 fi
 
@@ -55,12 +87,27 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PY" -m venv "$VENV"
 fi
 VPY=$VENV/bin/python
-if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
-  say "installing ROS 2 Jazzy wheels and Python dependencies (a few minutes the first time)"
-  quiet_pip install --disable-pip-version-check -q \
-      -r "$ROOT/requirements/ros.txt" -r "$ROOT/requirements/python.txt" -r "$ROOT/requirements/learn.txt" \
-      -r "$ROOT/requirements/dev.txt" \
-      -c "$ROOT/requirements/constraints.txt" ||
+if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$STAMPED" ]; then
+  say "installing ROS 2 Jazzy wheels and Python dependencies${WANT:+ with extras: $WANT} (a few minutes the first time)"
+  REQS=(-r "$ROOT/requirements/ros.txt" -r "$ROOT/requirements/python.txt")
+  for e in $WANT; do REQS+=(-r "$ROOT/requirements/$e.txt"); done
+  case " $WANT " in *" learn "*)
+    # torch's CPU wheel: the public index gives its CUDA build (GBs of NVIDIA libraries) on
+    # Linux, so take torch from PyTorch's CPU index when it can be reached; otherwise from the
+    # configured index (a machine with a local CPU wheel, or a mirror of that index)
+    TORCH_INDEX=${RASPV_TORCH_INDEX-https://download.pytorch.org/whl/cpu}
+    TORCH_PIN=$(grep -E '^torch==' "$ROOT/requirements/learn.txt")
+    if ! "$VPY" -c 'import torch' 2>/dev/null; then
+      if [ -n "$TORCH_INDEX" ] && "$VPY" -c 'import sys, urllib.request; urllib.request.urlopen(sys.argv[1], timeout=5)' "$TORCH_INDEX/" 2>/dev/null; then
+        say "torch's CPU build from $TORCH_INDEX"
+        quiet_pip install --disable-pip-version-check -q "$TORCH_PIN" --index-url "$TORCH_INDEX" ||
+          die "installing $TORCH_PIN from $TORCH_INDEX failed (error above)"
+      else
+        say "PyTorch's CPU index is not reachable here: $TORCH_PIN from the configured index"
+      fi
+    fi;;
+  esac
+  quiet_pip install --disable-pip-version-check -q "${REQS[@]}" -c "$ROOT/requirements/constraints.txt" ||
     die "pip install failed (its error is above); nothing was marked installed: fix it and run make install again"
   # open3d and pyrealsense2 need libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
   # at the copy shipped by the libusb-package wheel, so no system package is needed
@@ -69,13 +116,21 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$DEPS_HASH" ]; then
   ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
   "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' ||
     die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt"
+  case " $WANT " in *" learn "*)
+    "$VPY" -c 'import torch, onnx, tqdm' || die "the learn extra does not import (error above)"
+    "$VPY" -c 'import sys, torch; sys.exit(0 if torch.version.cuda is None else 1)' ||
+      say "warning: torch is a CUDA build (several GB); for the CPU build: $VPY -m pip install --force-reinstall $TORCH_PIN --index-url https://download.pytorch.org/whl/cpu";;
+  esac
+  case " $WANT " in *" cameras "*) "$VPY" -c 'import pyrealsense2, depthai, openni' || die "the cameras extra does not import (error above)";; esac
+  case " $WANT " in *" cluster "*) "$VPY" -c 'import ray' || die "the cluster extra does not import (error above)";; esac
   # the peers and tools the tests need (requirements/dev.txt): on an environment this script set
-  # up, their tests run instead of skipping (raspv_bringup.testing.dev_requirement)
-  "$VPY" -c 'import pytest, pulse2percept, dynaphos, torch, onnx, ai_edge_litert, ray, playwright.sync_api, pyrealsense2, depthai' ||
-    die "a test dependency (requirements/dev.txt) does not import (error above); rerun: $VPY -m pip install -r requirements/dev.txt"
+  # up with dev, their tests run instead of skipping (raspv_bringup.testing.dev_requirement)
+  case " $WANT " in *" dev "*)
+    "$VPY" -c 'import pytest, pulse2percept, dynaphos, onnx, ai_edge_litert, playwright.sync_api, mkdocs, material' ||
+      die "a test dependency (requirements/dev.txt) does not import (error above); rerun: make install EXTRAS=dev";;
+  esac
   quiet_pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e "$ROOT" ||
     die "installing the project (pip install -e .) failed (its error is above)"
-  rm -f "$MSG_STAMP"   # new ROS wheels: rebuild the messages against them
 fi
 
 # --- message packages: tf2_msgs (not among PyPI's ROS wheels; upstream's TFMessage) and raspv_msgs ----
@@ -105,5 +160,5 @@ fi
 
 "$VPY" -c 'import open3d, rclpy, raspv_msgs.msg, tf2_msgs.msg, raspv_bringup.cli' ||
   die "the environment does not import; delete $VENV and run make install again"
-echo "$DEPS_HASH" > "$STAMP"
-say "done: $VENV (run: $VENV/bin/raspv --help)"
+echo "$STAMPED" > "$STAMP"
+say "done: $VENV${WANT:+ with extras: $WANT} (run: $VENV/bin/raspv --help; what this machine can do: $VENV/bin/raspv doctor)"

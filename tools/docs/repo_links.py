@@ -57,6 +57,8 @@ def on_files(files, config):
 
 def on_page_markdown(markdown, page, config, files):
     """Point links to repository files at their published copies."""
+    if page.file.abs_src_path is None:      # a generated page (the parameter reference)
+        return markdown
     docs_dir = Path(config["docs_dir"]).resolve()
     root = docs_dir.parent
     page_src = Path(page.file.abs_src_path)

@@ -1,0 +1,99 @@
+"""Build steps pyproject.toml cannot declare, for a wheel that works outside the repository.
+
+``pip install .`` / ``pip wheel .`` (not the editable install ``make install`` makes):
+
+- copies the shipped data folders ``config/`` and ``experiments/`` into
+  ``raspv_common/shipped/`` (:mod:`raspv_common.shipped` finds them there);
+- builds ``raspv_msgs`` with cmake against the ROS 2 wheels of the build environment (the
+  ``build-system`` requirements) and puts its Python package (with the ``.msg`` files) and its
+  shared libraries into the wheel; the libraries go to ``ros_raspv_msgs.libs/``, a folder the
+  ROS wheels' bootstrapper adds to the library path. The wheel is therefore platform-specific.
+
+Needs ``cmake`` and a C++ compiler, like ``make install``.
+"""
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+from setuptools import Distribution, setup
+from setuptools.command.build_py import build_py
+
+ROOT = Path(__file__).resolve().parent
+SHIPPED = ("config", "experiments")
+LIBS_DIR = "ros_raspv_msgs.libs"
+_WHEEL_PYTHON = re.compile(r"/opt/python/cp3[0-9]+-cp3[0-9]+")
+
+
+def _point_cmake_files_at_this_python(prefix: Path) -> None:
+    """The ROS wheels' exported CMake files name their builder's Python (/opt/python/cp3XX-…):
+    point them at this interpreter's headers and numpy (as tools/install.sh does)."""
+    import numpy
+
+    py_include = sysconfig.get_paths()["include"]
+    np_include = numpy.get_include()
+    for path in (prefix / "share").rglob("*.cmake"):
+        text = path.read_text(errors="replace")
+        if not _WHEEL_PYTHON.search(text):
+            continue
+        text = re.sub(r"/opt/python/cp3[0-9]+-cp3[0-9]+/lib/python3\.[0-9]+/site-packages/numpy/_core/include",
+                      np_include, text)
+        text = re.sub(r"/opt/python/cp3[0-9]+-cp3[0-9]+/include/python3\.[0-9]+", py_include, text)
+        path.write_text(text)
+
+
+def build_messages(build_lib: Path, work: Path) -> None:
+    """raspv_msgs → ``build_lib/raspv_msgs`` (Python) and ``build_lib/ros_raspv_msgs.libs`` (C)."""
+    prefix = Path(sys.prefix)
+    if shutil.which("cmake") is None:
+        raise SystemExit("building raspv_msgs needs cmake: sudo apt-get install cmake g++")
+    _point_cmake_files_at_this_python(prefix)
+    install = work / "install"
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(prefix), CMAKE_PREFIX_PATH=str(prefix),
+               PATH=f"{prefix / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}")
+    log = work / "build.log"
+    with open(log, "w") as out:
+        for cmd in (["cmake", str(ROOT / "raspv_msgs"), f"-DCMAKE_INSTALL_PREFIX={install}",
+                     f"-DPython3_EXECUTABLE={sys.executable}", "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release"],
+                    ["make", f"-j{os.cpu_count() or 2}", "install"]):
+            if subprocess.run(cmd, cwd=work, env=env, stdout=out, stderr=subprocess.STDOUT).returncode != 0:
+                tail = log.read_text(errors="replace").splitlines()[-25:]
+                raise SystemExit("building raspv_msgs failed:\n" + "\n".join(tail))
+    package = next(install.glob("lib/python3*/site-packages/raspv_msgs"))
+    shutil.copytree(package, build_lib / "raspv_msgs", dirs_exist_ok=True)
+    for kind in ("msg", "srv"):  # the definitions too: rosbags builds its types from them
+        for f in (ROOT / "raspv_msgs" / kind).glob(f"*.{kind}"):
+            shutil.copy2(f, build_lib / "raspv_msgs" / kind / f.name)
+    libs = build_lib / LIBS_DIR
+    libs.mkdir(exist_ok=True)
+    for lib in install.glob("lib/*.so"):
+        shutil.copy2(lib, libs / lib.name)
+
+
+class BuildPyWithData(build_py):
+    def run(self):
+        super().run()
+        if getattr(self, "editable_mode", False):
+            return  # an editable install uses the checkout's folders and make install's messages
+        build_lib = Path(self.build_lib)
+        for name in SHIPPED:
+            shutil.copytree(ROOT / name, build_lib / "raspv_common" / "shipped" / name, dirs_exist_ok=True,
+                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        build_messages(build_lib, ROOT / "build" / "wheel_msgs")
+
+
+class BinaryDistribution(Distribution):
+    """The wheel carries compiled message libraries: a platform wheel, not py3-none-any."""
+
+    def has_ext_modules(self):
+        return True
+
+
+setup(cmdclass={"build_py": BuildPyWithData}, distclass=BinaryDistribution)
