@@ -49,7 +49,11 @@ def _point_cmake_files_at_this_python(prefix: Path) -> None:
 
 def build_messages(build_lib: Path, work: Path) -> None:
     """raspv_msgs → ``build_lib/raspv_msgs`` (Python) and ``build_lib/ros_raspv_msgs.libs`` (C)."""
-    prefix = Path(sys.prefix)
+    # the prefix the ROS build wheels are installed in: pip's isolated build environment (an
+    # overlay on sys.path, not sys.prefix) or the venv of a --no-build-isolation build
+    import ament_package
+
+    prefix = Path(ament_package.__file__).resolve().parents[4]
     if shutil.which("cmake") is None:
         raise SystemExit("building raspv_msgs needs cmake: sudo apt-get install cmake g++")
     _point_cmake_files_at_this_python(prefix)
@@ -57,7 +61,8 @@ def build_messages(build_lib: Path, work: Path) -> None:
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
     env = dict(os.environ, AMENT_PREFIX_PATH=str(prefix), CMAKE_PREFIX_PATH=str(prefix),
-               PATH=f"{prefix / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}")
+               PATH=f"{prefix / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
+               LD_LIBRARY_PATH=os.pathsep.join(p for p in (str(prefix / "lib"), os.environ.get("LD_LIBRARY_PATH")) if p))
     log = work / "build.log"
     with open(log, "w") as out:
         for cmd in (["cmake", str(ROOT / "raspv_msgs"), f"-DCMAKE_INSTALL_PREFIX={install}",
