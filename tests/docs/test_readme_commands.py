@@ -40,13 +40,13 @@ def readme_commands() -> list[str]:
 # README command -> the script lines that run it (README's text itself, plus what cuts it short)
 RUNS = {
     "make demo": 'make -C "$ROOT" demo DEMO_ARGS=bridge.port:=0 > demo.log 2>&1 &\n'
-                 'until grep -q "headset client: open" demo.log; do sleep 0.5; done',
+                 'until grep -q "headset client: open" demo.log; do sleep 0.5; kill -0 %1 || exit 1; done',
     "source .venv/bin/activate": 'source "$ROOT/.venv/bin/activate"\n'
                                  'raspv echo /camera/color/camera_info --once --wait 90 > /dev/null',
     "raspv param set spv mode chess_floor": "raspv param set spv mode chess_floor",
     "raspv param set spv device argus_ii": "raspv param set spv device argus_ii",
     "raspv bag record -o my_run": "raspv bag record -o my_run > record.log 2>&1 &\n"
-                                  'until grep -q "+ /camera/color/image_raw" record.log; do sleep 0.5; done\n'
+                                  'until grep -q "+ /camera/color/image_raw" record.log; do sleep 0.5; kill -0 %2 || exit 1; done\n'
                                   "raspv echo /camera/color/camera_info -n 10 --wait 30 > /dev/null\n"
                                   "kill -INT %2 && wait %2\n"
                                   "kill -INT %1; wait %1 || true",   # the demo's make: Ctrl-C is its way out
