@@ -19,13 +19,14 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from raspv_common import shipped
 from raspv_common.text_files import read_yaml_file
 
 from raspv_spv.implant_layout import EYES, LayoutError, load_layout
 from raspv_spv.retinotopy import CORTICAL_MAPS
 from raspv_spv.sprite_model_names import SPRITE_MODELS
 
-DEVICES_DIR = Path(__file__).resolve().parent.parent / "config" / "devices"
+DEVICES_DIR = shipped.CONFIG_DIR / "devices"
 GRIDS = ("rectangular", "hexagonal")
 FIELDS = ("rectangular", "circular")
 

@@ -25,9 +25,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from raspv_common import shipped
 from raspv_spv.retinotopy import CORTICAL_MAPS, WedgeDipoleMap, watson_ret_to_dva_exact
 
-LAYOUTS_DIR = Path(__file__).resolve().parent.parent / "config" / "layouts"
+LAYOUTS_DIR = shipped.CONFIG_DIR / "layouts"
 TARGETS = ("retina", "cortex")
 EYES = ("right", "left")
 GENERATED = ("neuralink",)
