@@ -31,7 +31,7 @@ _lock = threading.Lock()
 def _import(module: str, pip_name: str):
     ensure_libusb()   # pyrealsense2 links libusb-1.0
     try:
-        return require(module, f"the {pip_name} SDK")
+        return require(module, f"the {pip_name} SDK", extra="cameras", dist=pip_name)
     except MissingExtra as exc:
         raise SdkMissing(str(exc)) from None
     except ImportError as exc:

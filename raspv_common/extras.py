@@ -88,11 +88,13 @@ def install_command(extra: str) -> str:
     return f"{pip} 'raspv[{extra}]'"
 
 
-def require(module: str, purpose: str = "") -> ModuleType:
-    """Import ``module`` (a key of :data:`OPTIONAL_MODULES`, or a submodule of one); raise
-    :class:`MissingExtra` naming the extra and its install command when it is not installed."""
+def require(module: str, purpose: str = "", extra: str | None = None, dist: str | None = None) -> ModuleType:
+    """Import ``module`` (a key of :data:`OPTIONAL_MODULES`, or a submodule of one, unless
+    ``extra`` and ``dist`` name them); raise :class:`MissingExtra` naming the extra and its
+    install command when it is not installed."""
     top = module.split(".")[0]
-    extra, dist = OPTIONAL_MODULES[top]
+    if extra is None or dist is None:
+        extra, dist = OPTIONAL_MODULES[top]
     try:
         return importlib.import_module(module)
     except ModuleNotFoundError as exc:
