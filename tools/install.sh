@@ -43,7 +43,10 @@ for e in $KNOWN_EXTRAS; do case " $HAD $REQUESTED " in *" $e "*) WANT="$WANT $e"
 WANT=${WANT# }
 # pip with its exit status (pipefail), without the warning it prints per package for index
 # folders this machine's pip.conf names but lacks
+# --no-compile: Python writes each module's bytecode when it is first imported; compiling every
+# file of every package at install time cost ~160 MB and much of the install's CPU time
 quiet_pip() { "$VPY" -m pip "$@" 2>&1 | { grep -v -E "is ignored: it is neither a file nor a directory" || true; }; }
+PIP_INSTALL=(install --disable-pip-version-check -q --no-compile)
 
 # --- prerequisites (one line each, naming the fix) -----------------------------------------
 pick_python() {
@@ -100,14 +103,14 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$STAMPED" ]; then
     if ! "$VPY" -c 'import torch' 2>/dev/null; then
       if [ -n "$TORCH_INDEX" ] && "$VPY" -c 'import sys, urllib.request; urllib.request.urlopen(sys.argv[1], timeout=5)' "$TORCH_INDEX/" 2>/dev/null; then
         say "torch's CPU build from $TORCH_INDEX"
-        quiet_pip install --disable-pip-version-check -q "$TORCH_PIN" --index-url "$TORCH_INDEX" ||
+        quiet_pip "${PIP_INSTALL[@]}" "$TORCH_PIN" --index-url "$TORCH_INDEX" ||
           die "installing $TORCH_PIN from $TORCH_INDEX failed (error above)"
       else
         say "PyTorch's CPU index is not reachable here: $TORCH_PIN from the configured index"
       fi
     fi;;
   esac
-  quiet_pip install --disable-pip-version-check -q "${REQS[@]}" -c "$ROOT/requirements/constraints.txt" ||
+  quiet_pip "${PIP_INSTALL[@]}" "${REQS[@]}" -c "$ROOT/requirements/constraints.txt" ||
     die "pip install failed (its error is above); nothing was marked installed: fix it and run make install again"
   # open3d and pyrealsense2 need libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
   # at the copy shipped by the libusb-package wheel, so no system package is needed
@@ -129,7 +132,7 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$STAMPED" ]; then
     "$VPY" -c 'import pytest, pulse2percept, dynaphos, onnx, ai_edge_litert, playwright.sync_api, mkdocs, material' ||
       die "a test dependency (requirements/dev.txt) does not import (error above); rerun: make install EXTRAS=dev";;
   esac
-  quiet_pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e "$ROOT" ||
+  quiet_pip "${PIP_INSTALL[@]}" --no-deps --no-build-isolation -e "$ROOT" ||
     die "installing the project (pip install -e .) failed (its error is above)"
 fi
 

@@ -14,12 +14,11 @@ The README's Python block runs on a frame of the synthetic room (its ``rgb``, ``
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import pytest
 
-from tests.docs.tutorial_runner import run_block
+from tests.docs.tutorial_runner import run_block, user_env
 
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
@@ -68,7 +67,7 @@ def test_every_readme_command_is_run_here():
 @pytest.mark.integration
 def test_readme_commands_run_in_order(tmp_path):
     script = f'ROOT="{ROOT}"\n' + "\n".join(RUNS[c] for c in readme_commands() if c != "make test")
-    run = run_block("bash", script, tmp_path, _env(), timeout=1200)
+    run = run_block("bash", script, tmp_path, user_env("readme"), timeout=1200)
     print(run.output[-3000:], f"\n({run.seconds:.0f} s)")
     assert (tmp_path / "my_run.mp4").stat().st_size > 0
     assert (tmp_path / "report" / "report.html").exists()
@@ -77,7 +76,7 @@ def test_readme_commands_run_in_order(tmp_path):
 
 @pytest.mark.slow
 def test_make_test_installs_and_starts_the_suite(tmp_path):
-    run = run_block("bash", f'ROOT="{ROOT}"\n' + RUNS["make test"], tmp_path, _env(), timeout=600)
+    run = run_block("bash", f'ROOT="{ROOT}"\n' + RUNS["make test"], tmp_path, user_env("readme"), timeout=600)
     assert "tests collected" in run.output or "test_readme_commands" in run.output, run.output[-2000:]
 
 
@@ -89,14 +88,4 @@ def test_the_readme_python_block_runs(tmp_path):
              "room = SyntheticRoom(camera)\n"
              "rgb, depth = room.render(room.pose_at(4.0))\n")
     check = "\nassert image.ndim in (2, 3) and image.max() > 0, image.shape\n"
-    run_block("python", frame + code + check, tmp_path, _env(), timeout=300)
-
-
-def _env() -> dict[str, str]:
-    import os
-
-    env = dict(os.environ)
-    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
-    env["RASPV_TUTORIAL_RUN"] = f"readme-{os.getpid()}"
-    env.pop("PYTHONPATH", None)
-    return env
+    run_block("python", frame + code + check, tmp_path, user_env("readme"), timeout=300)

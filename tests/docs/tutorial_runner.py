@@ -4,7 +4,7 @@ user following it would (the environment's ``bin/`` first on the PATH, as after 
 
 A ``bash`` block runs in one ``bash -e`` with job control on (``set -m``, as in a terminal:
 ``cmd &`` then ``kill -INT %1`` stops it as Ctrl-C would); a ``python`` block runs in a new
-interpreter. A block that fails or outlives its timeout fails the page with its output; every
+interpreter. Blocks read no keyboard (standard input is /dev/null). A block that fails or outlives its timeout fails the page with its output; every
 process a block started is killed when it ends.
 """
 from __future__ import annotations
@@ -52,7 +52,8 @@ def _kill_tree(pid: int) -> None:
 def run_block(lang: str, code: str, cwd: Path, env: dict[str, str], timeout: float) -> BlockRun:
     cmd = ["bash", "-e", "-o", "pipefail", "-c", "set -m\n" + code] if lang == "bash" else [sys.executable, "-c", code]
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True,
                             start_new_session=True)
     descendants: set[int] = set()
     try:
@@ -76,12 +77,19 @@ def run_block(lang: str, code: str, cwd: Path, env: dict[str, str], timeout: flo
     return BlockRun(lang, code, seconds, out)
 
 
-def run_page(page: Path, cwd: Path, timeout_per_block: float = 600.0) -> list[BlockRun]:
-    """Every block of ``page`` in order in ``cwd``; the runs (AssertionError on the first failure)."""
+def user_env(tag: str) -> dict[str, str]:
+    """This environment as a user's shell after ``source .venv/bin/activate``; ``tag`` marks
+    the processes its blocks start (killed when a block ends)."""
     env = dict(os.environ)
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
-    env["RASPV_TUTORIAL_RUN"] = f"{os.getpid()}-{page.stem}-{time.monotonic_ns()}"   # marks its processes
+    env["RASPV_TUTORIAL_RUN"] = f"{os.getpid()}-{tag}-{time.monotonic_ns()}"
     env.pop("PYTHONPATH", None)
+    return env
+
+
+def run_page(page: Path, cwd: Path, timeout_per_block: float = 600.0) -> list[BlockRun]:
+    """Every block of ``page`` in order in ``cwd``; the runs (AssertionError on the first failure)."""
+    env = user_env(page.stem)
     runs = []
     for lang, code in blocks(page):
         runs.append(run_block(lang, code, cwd, env, timeout_per_block))
