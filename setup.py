@@ -4,10 +4,11 @@
 
 - copies the shipped data folders ``config/`` and ``experiments/`` into
   ``raspv_common/shipped/`` (:mod:`raspv_common.shipped` finds them there);
-- builds ``raspv_msgs`` with cmake against the ROS 2 wheels of the build environment (the
-  ``build-system`` requirements) and puts its Python package (with the ``.msg`` files) and its
-  shared libraries into the wheel; the libraries go to ``ros_raspv_msgs.libs/``, a folder the
-  ROS wheels' bootstrapper adds to the library path. The wheel is therefore platform-specific.
+- builds the message packages ``tf2_msgs`` (not among PyPI's ROS wheels) and ``raspv_msgs``
+  with cmake against the ROS 2 wheels of the build environment (the ``build-system``
+  requirements) and puts their Python packages (with the ``.msg`` files) and their shared
+  libraries into the wheel; the libraries go to ``ros_raspv_msgs.libs/``, a folder the ROS
+  wheels' bootstrapper adds to the library path. The wheel is therefore platform-specific.
 
 Needs ``cmake`` and a C++ compiler, like ``make install``.
 """
@@ -26,6 +27,7 @@ from setuptools.command.build_py import build_py
 
 ROOT = Path(__file__).resolve().parent
 SHIPPED = ("config", "experiments")
+MESSAGE_PACKAGES = ("tf2_msgs", "raspv_msgs")      # built in this order (as tools/install.sh does)
 LIBS_DIR = "ros_raspv_msgs.libs"
 _WHEEL_PYTHON = re.compile(r"/opt/python/cp3[0-9]+-cp3[0-9]+")
 
@@ -48,7 +50,7 @@ def _point_cmake_files_at_this_python(prefix: Path) -> None:
 
 
 def build_messages(build_lib: Path, work: Path) -> None:
-    """raspv_msgs → ``build_lib/raspv_msgs`` (Python) and ``build_lib/ros_raspv_msgs.libs`` (C)."""
+    """The message packages → ``build_lib/<pkg>`` (Python) and ``build_lib/ros_raspv_msgs.libs`` (C)."""
     # the prefix the ROS build wheels are installed in: pip's isolated build environment (an
     # overlay on sys.path, not sys.prefix) or the venv of a --no-build-isolation build
     import ament_package
@@ -60,22 +62,28 @@ def build_messages(build_lib: Path, work: Path) -> None:
     install = work / "install"
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
-    env = dict(os.environ, AMENT_PREFIX_PATH=str(prefix), CMAKE_PREFIX_PATH=str(prefix),
+    install.mkdir()
+    env = dict(os.environ, AMENT_PREFIX_PATH=f"{install}{os.pathsep}{prefix}",
+               CMAKE_PREFIX_PATH=f"{install}{os.pathsep}{prefix}",
                PATH=f"{prefix / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
-               LD_LIBRARY_PATH=os.pathsep.join(p for p in (str(prefix / "lib"), os.environ.get("LD_LIBRARY_PATH")) if p))
-    log = work / "build.log"
-    with open(log, "w") as out:
-        for cmd in (["cmake", str(ROOT / "raspv_msgs"), f"-DCMAKE_INSTALL_PREFIX={install}",
-                     f"-DPython3_EXECUTABLE={sys.executable}", "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release"],
-                    ["make", f"-j{os.cpu_count() or 2}", "install"]):
-            if subprocess.run(cmd, cwd=work, env=env, stdout=out, stderr=subprocess.STDOUT).returncode != 0:
-                tail = log.read_text(errors="replace").splitlines()[-25:]
-                raise SystemExit("building raspv_msgs failed:\n" + "\n".join(tail))
-    package = next(install.glob("lib/python3*/site-packages/raspv_msgs"))
-    shutil.copytree(package, build_lib / "raspv_msgs", dirs_exist_ok=True)
-    for kind in ("msg", "srv"):  # the definitions too: rosbags builds its types from them
-        for f in (ROOT / "raspv_msgs" / kind).glob(f"*.{kind}"):
-            shutil.copy2(f, build_lib / "raspv_msgs" / kind / f.name)
+               LD_LIBRARY_PATH=os.pathsep.join(p for p in (str(install / "lib"), str(prefix / "lib"),
+                                                           os.environ.get("LD_LIBRARY_PATH")) if p))
+    for pkg in MESSAGE_PACKAGES:
+        build = work / pkg
+        build.mkdir()
+        log = build / "build.log"
+        with open(log, "w") as out:
+            for cmd in (["cmake", str(ROOT / pkg), f"-DCMAKE_INSTALL_PREFIX={install}",
+                         f"-DPython3_EXECUTABLE={sys.executable}", "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release"],
+                        ["make", f"-j{os.cpu_count() or 2}", "install"]):
+                if subprocess.run(cmd, cwd=build, env=env, stdout=out, stderr=subprocess.STDOUT).returncode != 0:
+                    tail = log.read_text(errors="replace").splitlines()[-25:]
+                    raise SystemExit(f"building {pkg} failed:\n" + "\n".join(tail))
+        package = next(install.glob(f"lib/python3*/site-packages/{pkg}"))
+        shutil.copytree(package, build_lib / pkg, dirs_exist_ok=True)
+        for kind in ("msg", "srv"):  # the definitions too: rosbags builds its types from them
+            for f in (ROOT / pkg / kind).glob(f"*.{kind}"):
+                shutil.copy2(f, build_lib / pkg / kind / f.name)
     libs = build_lib / LIBS_DIR
     libs.mkdir(exist_ok=True)
     for lib in install.glob("lib/*.so"):

@@ -58,8 +58,9 @@ def check_environment() -> Check:
         return Check("environment", "gap", f"not a virtual environment ({sys.prefix})",
                      "make install (creates .venv)" if in_checkout() else "python3 -m venv ENV && ENV/bin/pip install raspv")
     where = f"{sys.prefix} ({how}{', checkout ' + str(REPO_ROOT) if in_checkout() else ', installed package'})"
-    if not _found("raspv_msgs"):
-        return Check("environment", "fail", f"{where}: the raspv_msgs messages are not built",
+    unbuilt = [m for m in ("raspv_msgs", "tf2_msgs") if not _found(m)]
+    if unbuilt:
+        return Check("environment", "fail", f"{where}: the {' and '.join(unbuilt)} messages are not built",
                      "make install" if in_checkout() else "pip install raspv (the wheel carries the messages)")
     return Check("environment", "ok", where)
 
