@@ -17,6 +17,6 @@ step() {
       "(load average $before before, $(cut -d' ' -f1-3 /proc/loadavg) after)"
 }
 step default make install
-.venv/bin/pip list 2>/dev/null | grep -ciE "^(torch|ray|depthai|playwright|imageio-ffmpeg|pyrealsense2) " |
-  xargs -I{} sh -c '[ {} = 0 ] && echo "measure_install: default: no torch, Ray, DepthAI, Playwright, ffmpeg or RealSense" || echo "measure_install: default: {} of torch, Ray, DepthAI, Playwright, ffmpeg, RealSense found"'
+found=$(.venv/bin/pip list 2>/dev/null | grep -ciE "^(torch|ray|depthai|playwright|imageio-ffmpeg|pyrealsense2) " || true)
+say "default: $found of torch, Ray, DepthAI, Playwright, imageio-ffmpeg, pyrealsense2 installed (0 expected)"
 step full make install EXTRAS=dev
