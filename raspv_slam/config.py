@@ -51,7 +51,6 @@ class SlamConfig:
     # -- pose graph (GTSAM): edge noise of a dense RGB-D registration between keyframes
     edge_sigma_translation: float = 0.01   # [m]
     edge_sigma_rotation_deg: float = 0.5
-    loop_huber: float = 1.345             # robust (Huber) kernel on loop edges, in standard deviations
     # -- resources
     threads: int = 1                    # OpenCV and Open3D threads (process-wide); 1 = one core
     background: bool = True             # loop closing in a background thread (False: inline, for tests)

@@ -9,8 +9,8 @@ For each keyframe the tracker makes (:meth:`LoopCloser.submit`):
 3. **loop**: the place database's best candidates that are not recent and not already linked
    are verified with PnP RANSAC (at least ``loop_min_inliers`` inliers, no pose guess: the
    drift may be large) and dense refinement; each success is a loop edge (robust kernel);
-4. the pose graph (GTSAM) is optimised and the map's poses replaced; tracking applies the
-   correction at its next frame.
+4. the pose graph (GTSAM, graduated non-convexity) is optimised, edges it judges outliers are
+   dropped and the map's poses replaced; tracking applies the correction at its next frame.
 
 The thread runs at the tracker's pace: it never holds the map's lock while it computes, so
 tracking does not wait for it (``background=False`` in the config runs it inline, for tests).
@@ -44,6 +44,7 @@ class LoopCloser:
         self.loop_edges = 0
         self.covisibility_edges = 0
         self.optimisations = 0
+        self.rejected: list[Edge] = []          # judged outliers by the optimisation (removed from the map)
         self.busy_ms: list[float] = []          # time spent per keyframe [ms]
         self.error: BaseException | None = None
 
@@ -121,7 +122,10 @@ class LoopCloser:
             with m.lock:
                 edges = list(m.edges)
             poses = m.poses()
-            optimised = optimise(poses, edges, c, fixed=min(poses))
+            optimised, outliers = optimise(poses, edges, c, fixed=min(poses))
+            m.remove_edges(outliers)
+            self.rejected.extend(outliers)
+            new_loop = new_loop and any(e.kind == "loop" and e.b == kf_id for e in edges if e not in outliers)
             moved = max(pose_distance(poses[k], optimised[k])[0] for k in optimised)
             m.apply_correction(optimised, closed_loop=new_loop and moved > 1e-3)
             self.optimisations += 1

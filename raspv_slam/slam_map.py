@@ -87,6 +87,13 @@ class SlamMap:
         with self.lock:
             self.edges.append(edge)
 
+    def remove_edges(self, edges: list[Edge]) -> None:
+        if not edges:
+            return
+        drop = {id(e) for e in edges}
+        with self.lock:
+            self.edges = [e for e in self.edges if id(e) not in drop]
+
     def connected(self, a: int, b: int) -> bool:
         with self.lock:
             return any({e.a, e.b} == {a, b} for e in self.edges)
