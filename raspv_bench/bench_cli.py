@@ -28,6 +28,7 @@ BENCHES: dict[str, str] = {
     "twin": "raspv_bench.twin",
     "learned": "raspv_bench.learned",
     "ratios": "raspv_bench.ratios",
+    "slam": "raspv_bench.slam",
 }
 
 

@@ -25,10 +25,8 @@ class SlamConfig:
     min_inliers: int = 20               # a PnP pose with fewer inliers is not trusted
     # -- dense refinement (raspv_perception's RGB-D registration, half-size images)
     dense_scale: float = 0.5
-    dense_iterations: tuple[int, ...] = (10, 5, 3)
+    dense_iterations: tuple[int, ...] = (6, 4, 2)   # coarse to fine; PnP gives a near start (Open3D: 10, 5, 3)
     min_agreement: float = 0.3          # share of 3-D points that must agree with the other frame's depth
-    agree_translation: float = 0.03     # PnP and the predicted pose closer than this agree [m] ...
-    agree_rotation_deg: float = 2.0     # ... (else the dense registration also starts from the prediction)
     # -- tracking
     lost_after: int = 10                # consecutive failed frames before the state is LOST (1/3 s at 30 Hz)
     max_frame_translation: float = 0.3  # a frame-to-frame motion larger than this is a failure [m]

@@ -44,11 +44,15 @@ class Features:
 
 
 class FeatureExtractor:
-    """ORB keypoints and descriptors of a grey image, lifted to 3-D with the depth image."""
+    """ORB keypoints and descriptors of a grey image, lifted to 3-D with the depth image. With
+    lens distortion, keypoints are found on the raw image, their depth read there (the depth is
+    registered to the raw colour image), and their coordinates undistorted (ORB-SLAM's way;
+    cheaper than rectifying whole images)."""
 
     def __init__(self, intrinsics: CameraIntrinsics, config: SlamConfig) -> None:
         self.intrinsics = intrinsics
         self.config = config
+        self._distortion = np.asarray(config.distortion, np.float64) if config.distortion else None
         self._orb = cv2.ORB_create(nfeatures=config.features, scaleFactor=config.scale_factor, nlevels=config.levels,
                                    fastThreshold=config.fast_threshold, edgeThreshold=19, patchSize=31)
         self._orb_low = cv2.ORB_create(nfeatures=config.features, scaleFactor=config.scale_factor,
@@ -61,18 +65,23 @@ class FeatureExtractor:
             keypoints, descriptors = self._orb_low.detectAndCompute(gray, None)
         if descriptors is None or not keypoints:
             return Features.empty()
-        uv = np.array([k.pt for k in keypoints], dtype=np.float32)
+        raw = np.array([k.pt for k in keypoints], dtype=np.float32)
         octaves = np.array([k.octave for k in keypoints], dtype=np.int8)
-        return Features(uv, descriptors, self.lift(uv, depth), octaves)
+        uv = raw
+        if self._distortion is not None:
+            K = self.intrinsics.K
+            uv = cv2.undistortPoints(raw.reshape(-1, 1, 2), K, self._distortion, P=K).reshape(-1, 2).astype(np.float32)
+        return Features(uv, descriptors, self.lift(raw, uv, depth), octaves)
 
-    def lift(self, uv: np.ndarray, depth: np.ndarray | None) -> np.ndarray:
-        """3-D points in C under pixels ``uv`` (N, 2); NaN where the depth has no usable reading."""
+    def lift(self, raw: np.ndarray, uv: np.ndarray, depth: np.ndarray | None) -> np.ndarray:
+        """3-D points in C of keypoints at raw pixels ``raw`` (N, 2) (where the depth is read)
+        with undistorted pixels ``uv``; NaN where the depth has no usable reading."""
         K = self.intrinsics
         points = np.full((len(uv), 3), np.nan, dtype=np.float32)
         if depth is None or not len(uv):
             return points
-        col = np.clip(np.rint(uv[:, 0]).astype(int), 0, K.width - 1)
-        row = np.clip(np.rint(uv[:, 1]).astype(int), 0, K.height - 1)
+        col = np.clip(np.rint(raw[:, 0]).astype(int), 0, K.width - 1)
+        row = np.clip(np.rint(raw[:, 1]).astype(int), 0, K.height - 1)
         z = depth[row, col]
         ok = np.isfinite(z) & (z >= self.config.min_depth) & (z <= self.config.max_depth)
         z = z[ok]

@@ -2,9 +2,10 @@
 registration (no ROS).
 
 Input: colour (H, W, 3) uint8 RGB and depth (H, W) float32 metres registered to the colour
-(NaN: no reading); either may be missing. With lens distortion coefficients in the config
-both images are rectified first (precomputed maps; depth by nearest neighbour) so that every
-later step sees a pinhole camera.
+(NaN: no reading); either may be missing. With lens distortion coefficients in the config the
+keypoints are undistorted (:mod:`features`) and the small images for dense registration are
+rectified (maps precomputed; depth by nearest neighbour), so every later step sees a pinhole
+camera.
 """
 from __future__ import annotations
 
@@ -65,8 +66,9 @@ class FramePreparer:
             iterations=tuple(config.dense_iterations)))
         self._maps = None
         if config.distortion:
-            self._maps = cv2.initUndistortRectifyMap(intrinsics.K, np.asarray(config.distortion, np.float64), None,
-                                                     intrinsics.K, (intrinsics.width, intrinsics.height), cv2.CV_16SC2)
+            K = self.small_intrinsics
+            self._maps = cv2.initUndistortRectifyMap(K.K, np.asarray(config.distortion, np.float64), None, K.K,
+                                                     (K.width, K.height), cv2.CV_16SC2)
 
     def check(self, rgb: np.ndarray | None, depth: np.ndarray | None) -> None:
         K = self.intrinsics
@@ -82,17 +84,17 @@ class FramePreparer:
         self.check(rgb, depth)
         if depth is not None:
             depth = np.asarray(depth, dtype=np.float32)
-        if self._maps is not None:
-            if rgb is not None:
-                rgb = cv2.remap(rgb, *self._maps, cv2.INTER_LINEAR)
-            if depth is not None:
-                depth = cv2.remap(depth, *self._maps, cv2.INTER_NEAREST, borderValue=float("nan"))
         features = Features.empty()
         if rgb is not None:
             features = self.extractor.extract(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), depth)
         size = (self.small_intrinsics.width, self.small_intrinsics.height)
         small_rgb = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA) if rgb is not None else None
         small_depth = cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST) if depth is not None else None
+        if self._maps is not None:
+            if small_rgb is not None:
+                small_rgb = cv2.remap(small_rgb, *self._maps, cv2.INTER_LINEAR)
+            if small_depth is not None:
+                small_depth = cv2.remap(small_depth, *self._maps, cv2.INTER_NEAREST, borderValue=float("nan"))
         dense = self.dense_image(small_rgb, small_depth) if small_depth is not None else None
         sharpness = 0.0
         if small_rgb is not None:

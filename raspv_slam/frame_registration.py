@@ -11,8 +11,8 @@ target is usually a keyframe (its features carry 3-D points), the source the fra
    with a translation when the points are far and noisy (blur, coarse pyramid levels): it is a
    starting point.
 2. The dense registration (``raspv_perception``'s Open3D hybrid odometry, half-size images)
-   refines it. When PnP failed, or disagrees with a predicted pose (motion model, the current
-   map), the dense registration also starts from the prediction.
+   refines it. When PnP failed, or its result does not pass verification (3.), the dense
+   registration also starts from the predicted pose (motion model, the current map).
 3. Each result is verified: a grid of the source's depth points is moved into the target and
    compared with the target's depth there; a pose counts when at least ``min_agreement`` of
    the points that land on measured depth agree within the sensor's noise (3σ of the Kinect
@@ -122,8 +122,8 @@ class FrameRegistrar:
         starts = [s for s in (pose, predicted_target_from_source) if s is not None]
         best: Registration | None = None
         for n, start in enumerate(starts):
-            if n == 1 and best is not None and _close(best.target_from_source, start, c):
-                break                              # PnP and the prediction agree: nothing more to try
+            if n == 1 and best is not None:
+                break                              # the PnP start verified: no second start
             refined, _ = self.dense.register(source.dense, target.dense, start,
                                              geometric_only=source.small_rgb is None or target.small_rgb is None)
             dt, dr = motion_size(inverse(start) @ refined)
@@ -137,7 +137,3 @@ class FrameRegistrar:
             return best
         return Registration(None, inliers, 0, 0.0, "failed")
 
-
-def _close(a: np.ndarray, b: np.ndarray, c: SlamConfig) -> bool:
-    dt, dr = motion_size(inverse(a) @ b)
-    return dt <= c.agree_translation and dr <= c.agree_rotation_deg

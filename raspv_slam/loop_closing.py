@@ -70,6 +70,11 @@ class LoopCloser:
             finally:
                 self._queue.task_done()
 
+    @property
+    def busy(self) -> bool:
+        """Keyframes are waiting or being processed."""
+        return self._queue.unfinished_tasks > 0
+
     def check(self) -> None:
         """Re-raise in the caller's thread an error the background thread met."""
         if self.error is not None:
