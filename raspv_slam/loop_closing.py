@@ -25,7 +25,7 @@ import numpy as np
 from raspv_slam.config import SlamConfig
 from raspv_slam.frame import FramePreparer
 from raspv_slam.frame_registration import FrameRegistrar
-from raspv_slam.pose_graph import optimise
+from raspv_slam.pose_graph import PoseGraphProcess, optimise
 from raspv_slam.se3 import inverse, pose_distance
 from raspv_slam.slam_map import Edge, SlamMap
 
@@ -41,6 +41,7 @@ class LoopCloser:
         self.config = config
         self._queue: queue.Queue[int] = queue.Queue()
         self._thread: threading.Thread | None = None
+        self._solver = PoseGraphProcess() if config.background else None
         self.loop_edges = 0
         self.covisibility_edges = 0
         self.optimisations = 0
@@ -90,6 +91,8 @@ class LoopCloser:
             self._queue.put(STOP)
             self._thread.join()
             self._thread = None
+        if self._solver is not None:
+            self._solver.close()
 
     # -- one keyframe -------------------------------------------------------------------------
     def process(self, kf_id: int) -> None:
@@ -127,7 +130,7 @@ class LoopCloser:
             with m.lock:
                 edges = list(m.edges)
             poses = m.poses()
-            optimised, outliers = optimise(poses, edges, c, fixed=min(poses))
+            optimised, outliers = optimise(poses, edges, c, fixed=min(poses), solver=self._solver)
             m.remove_edges(outliers)
             self.rejected.extend(outliers)
             new_loop = new_loop and any(e.kind == "loop" and e.b == kf_id for e in edges if e not in outliers)

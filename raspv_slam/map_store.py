@@ -31,7 +31,8 @@ from raspv_slam.config import SlamConfig
 from raspv_slam.features import Features
 from raspv_slam.keyframe import Keyframe
 from raspv_slam.place_recognition import PlaceDatabase, Vocabulary
-from raspv_slam.slam_map import EDGE_KINDS, Edge, SlamMap
+from raspv_slam.pose_graph import EDGE_KINDS
+from raspv_slam.slam_map import Edge, SlamMap
 
 FORMAT = "raspv-slam-map"
 VERSION = 1

@@ -11,57 +11,128 @@ drift. So when the graph has such edges it is solved with graduated non-convexit
 ``GncLMOptimizer``, truncated least squares; Yang et al., RA-L 2020): the odometry chain and the
 prior are known inliers; every other edge ends either fully used or rejected (residual beyond
 the χ² 99 % bound of its noise model). Without them, plain Levenberg-Marquardt.
+
+GTSAM's Python calls hold the interpreter lock for the whole optimisation (measured: a 200-node
+graph stalled another thread by up to 0.6 s on a loaded machine), so the loop closer runs it in
+a process of its own (:class:`PoseGraphProcess`): tracking never waits for it.
 """
 from __future__ import annotations
 
 import math
+import multiprocessing
+import signal
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from raspv_slam.config import SlamConfig
-from raspv_slam.slam_map import Edge
+
+if TYPE_CHECKING:
+    from raspv_slam.slam_map import Edge
 
 PRIOR_SIGMA = 1e-6
 INLIER_PROBABILITY = 0.99
+EDGE_KINDS = ("odometry", "covisibility", "loop")
 
 
 def optimise(poses: dict[int, np.ndarray], edges: list[Edge], config: SlamConfig, fixed: int | None = None,
-             max_iterations: int = 100) -> tuple[dict[int, np.ndarray], list[Edge]]:
+             solver: "PoseGraphProcess | None" = None) -> tuple[dict[int, np.ndarray], list[Edge]]:
     """(optimised poses (same keys as ``poses``), the edges judged outliers). Edges naming
-    unknown keyframes are skipped."""
-    import gtsam
-
+    unknown keyframes are skipped. ``solver``: solve in that process instead of this one."""
     if not poses:
         return {}, []
-    fixed = min(poses) if fixed is None else fixed
+    ids = sorted(poses)
+    used = [e for e in edges if e.a in poses and e.b in poses and e.a != e.b]
+    problem = (np.array(ids, np.int64), np.array([poses[k] for k in ids], np.float64).reshape(-1, 4, 4),
+               np.array([e.a for e in used], np.int64), np.array([e.b for e in used], np.int64),
+               np.array([e.a_from_b for e in used], np.float64).reshape(-1, 4, 4),
+               np.array([EDGE_KINDS.index(e.kind) for e in used], np.int8),
+               math.radians(config.edge_sigma_rotation_deg), config.edge_sigma_translation,
+               min(poses) if fixed is None else fixed)
+    solved, outlier = solver.solve(problem) if solver is not None else solve(*problem)
+    return {k: solved[i] for i, k in enumerate(ids)}, [e for e, out in zip(used, outlier) if out]
+
+
+def solve(ids, poses, a, b, a_from_b, kinds, sigma_rotation, sigma_translation, fixed,
+          max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray]:
+    """The optimisation on plain arrays: (poses (N, 4, 4) in the order of ``ids``, outlier flag per edge)."""
+    import gtsam
+
     graph = gtsam.NonlinearFactorGraph()
     initial = gtsam.Values()
-    for k, T in poses.items():
-        initial.insert(k, gtsam.Pose3(np.asarray(T, dtype=np.float64)))
-    graph.add(gtsam.PriorFactorPose3(fixed, gtsam.Pose3(np.asarray(poses[fixed], dtype=np.float64)),
+    for k, T in zip(ids, poses):
+        initial.insert(int(k), gtsam.Pose3(T))
+    graph.add(gtsam.PriorFactorPose3(int(fixed), gtsam.Pose3(poses[list(ids).index(fixed)]),
                                      gtsam.noiseModel.Isotropic.Sigma(6, PRIOR_SIGMA)))
-    r = math.radians(config.edge_sigma_rotation_deg)
-    t = config.edge_sigma_translation
+    r, t = sigma_rotation, sigma_translation
     noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([r, r, r, t, t, t]))
     known_inliers = [0]
-    used: list[Edge] = []
-    for e in edges:
-        if e.a in poses and e.b in poses and e.a != e.b:
-            if e.kind == "odometry":
-                known_inliers.append(graph.size())
-            graph.add(gtsam.BetweenFactorPose3(e.a, e.b, gtsam.Pose3(np.asarray(e.a_from_b, dtype=np.float64)), noise))
-            used.append(e)
+    for ea, eb, T, kind in zip(a, b, a_from_b, kinds):
+        if EDGE_KINDS[kind] == "odometry":
+            known_inliers.append(graph.size())
+        graph.add(gtsam.BetweenFactorPose3(int(ea), int(eb), gtsam.Pose3(T), noise))
     lm = gtsam.LevenbergMarquardtParams()
     lm.setMaxIterations(max_iterations)
+    outlier = np.zeros(len(a), bool)
     if len(known_inliers) == graph.size():
         result = gtsam.LevenbergMarquardtOptimizer(graph, initial, lm).optimize()
-        return {k: result.atPose3(k).matrix() for k in poses}, []
-    params = gtsam.GncLMParams(lm)
-    params.setLossType(gtsam.GncLossType.TLS)
-    params.setKnownInliers(known_inliers)
-    optimizer = gtsam.GncLMOptimizer(graph, initial, params)
-    optimizer.setInlierCostThresholdsAtProbability(INLIER_PROBABILITY)
-    result = optimizer.optimize()
-    weights = np.asarray(optimizer.getWeights())
-    outliers = [e for i, e in enumerate(used, start=1) if weights[i] < 0.5]
-    return {k: result.atPose3(k).matrix() for k in poses}, outliers
+    else:
+        params = gtsam.GncLMParams(lm)
+        params.setLossType(gtsam.GncLossType.TLS)
+        params.setKnownInliers(known_inliers)
+        optimizer = gtsam.GncLMOptimizer(graph, initial, params)
+        optimizer.setInlierCostThresholdsAtProbability(INLIER_PROBABILITY)
+        result = optimizer.optimize()
+        outlier = np.asarray(optimizer.getWeights())[1:] < 0.5
+    return np.array([result.atPose3(int(k)).matrix() for k in ids]).reshape(-1, 4, 4), outlier
+
+
+class PoseGraphProcess:
+    """:func:`solve` in a child process (started on first use, stopped by :meth:`close`)."""
+
+    def __init__(self) -> None:
+        self._conn = None
+        self._process = None
+
+    def solve(self, problem: tuple) -> tuple[np.ndarray, np.ndarray]:
+        if self._process is None:
+            ctx = multiprocessing.get_context("spawn")       # no fork of a process with threads
+            self._conn, child = ctx.Pipe()
+            self._process = ctx.Process(target=_serve, args=(child,), name="slam-pose-graph", daemon=True)
+            self._process.start()
+            child.close()
+        self._conn.send(problem)
+        try:
+            ok, payload = self._conn.recv()
+        except EOFError:
+            raise RuntimeError(f"the pose-graph process died (exit code {self._process.exitcode})") from None
+        if not ok:
+            raise RuntimeError(f"pose-graph optimisation failed: {payload}")
+        return payload
+
+    def close(self) -> None:
+        if self._process is not None:
+            try:
+                self._conn.send(None)
+            except (BrokenPipeError, OSError):
+                pass
+            self._process.join(timeout=5)
+            if self._process.is_alive():
+                self._process.kill()
+            self._conn.close()
+            self._process = None
+
+
+def _serve(conn) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)       # the parent stops it (Ctrl-C reaches the whole group)
+    while True:
+        try:
+            problem = conn.recv()
+        except EOFError:
+            return
+        if problem is None:
+            return
+        try:
+            conn.send((True, solve(*problem)))
+        except RuntimeError as exc:                      # GTSAM's errors (indeterminant system, …)
+            conn.send((False, str(exc).splitlines()[0] if str(exc) else type(exc).__name__))

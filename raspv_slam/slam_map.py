@@ -20,9 +20,9 @@ from raspv_perception.rgbd_odometry import LEVEL_WORLD_FROM_CAMERA
 from raspv_slam.config import SlamConfig
 from raspv_slam.keyframe import Keyframe
 from raspv_slam.place_recognition import PlaceDatabase
+from raspv_slam.pose_graph import EDGE_KINDS
 from raspv_slam.se3 import inverse, pose_distance
 
-EDGE_KINDS = ("odometry", "covisibility", "loop")
 FRAME_CACHE = 12            # decoded keyframes kept for registration
 
 
@@ -44,6 +44,7 @@ class SlamMap:
         self._poses: dict[int, np.ndarray] = {}
         self.edges: list[Edge] = []
         self.parent: dict[int, int] = {}            # odometry parent of each keyframe
+        self.transient: list[int] = []              # localisation mode's keyframes (not part of the map)
         self.world_from_slam = LEVEL_WORLD_FROM_CAMERA.copy()
         self.anchored = False
         self.places = PlaceDatabase(config)
@@ -55,7 +56,8 @@ class SlamMap:
 
     # -- keyframes and poses ------------------------------------------------------------------
     def __len__(self) -> int:
-        return len(self.keyframes)
+        """Keyframes of the map (without localisation's transient ones)."""
+        return len(self.keyframes) - len(self.transient)
 
     def new_id(self) -> int:
         with self.lock:
@@ -63,14 +65,35 @@ class SlamMap:
             return self._next_id - 1
 
     def add_keyframe(self, kf: Keyframe, slam_from_kf: np.ndarray, parent: int | None = None,
-                     parent_from_kf: np.ndarray | None = None) -> None:
+                     parent_from_kf: np.ndarray | None = None, transient: bool = False) -> None:
         with self.lock:
             self.keyframes[kf.id] = kf
             self._poses[kf.id] = np.array(slam_from_kf, dtype=np.float64)
             self._next_id = max(self._next_id, kf.id + 1)
+            if transient:
+                self.transient.append(kf.id)
+                return
             if parent is not None:
                 self.parent[kf.id] = parent
                 self.edges.append(Edge(parent, kf.id, np.array(parent_from_kf, dtype=np.float64), "odometry"))
+
+    def prune_transient(self, keep_last: int, keep: set = frozenset()) -> None:
+        """Drop the oldest transient keyframes beyond ``keep_last`` (but those in ``keep``)."""
+        with self.lock:
+            while len(self.transient) > keep_last:
+                old = next((k for k in self.transient if k not in keep), None)
+                if old is None:
+                    return
+                self.transient.remove(old)
+                del self.keyframes[old], self._poses[old]
+                self._frames.pop(old, None)
+
+    @property
+    def permanent(self) -> list[int]:
+        """Keyframes that belong to the map (not localisation's transient ones)."""
+        with self.lock:
+            transient = set(self.transient)
+            return [k for k in self.keyframes if k not in transient]
 
     def pose(self, kf_id: int) -> np.ndarray:
         """S ← K of a keyframe (a copy)."""

@@ -36,6 +36,7 @@ from raspv_slam.se3 import inverse, motion_size
 from raspv_slam.slam_map import SlamMap
 
 HISTORY = 300               # frames whose poses anchor_to_floor can still look up
+TRANSIENT_KEYFRAMES = 30    # keyframes kept in localisation mode outside the map's views
 STAMP_TOLERANCE_S = 1e-3
 
 
@@ -166,8 +167,6 @@ class SlamSystem:
             if reg.ok and self.map.view_overlap(kf_id, reg.target_from_source) >= c.keyframe_overlap:
                 self.ref, self.ref_from_camera = kf_id, reg.target_from_source
                 return
-        if self.localisation_only:
-            return
         # the sharpest recent frame tracked against the same reference becomes the keyframe
         usable = [(f.sharpness, i) for i, (f, ref, _) in enumerate(self._recent)
                   if ref == self.ref and f.has_depth and len(f.features.with_depth) >= c.min_inliers]
@@ -198,6 +197,13 @@ class SlamSystem:
                       parent_from_kf: np.ndarray | None) -> int:
         color, depth = encode_images(frame.small_rgb, frame.small_depth)
         kf = Keyframe(self.map.new_id(), frame.stamp, frame.features, color, depth)
+        if self.localisation_only:
+            # outside the mapped views: a transient keyframe to track against (never saved, not a
+            # place to relocalise in; the oldest are dropped)
+            self.map.add_keyframe(kf, slam_from_camera, transient=True)
+            keep = {parent} | ({self._last_tracked[1]} if self._last_tracked is not None else set())
+            self.map.prune_transient(TRANSIENT_KEYFRAMES, keep=keep)
+            return kf.id
         self.map.add_keyframe(kf, slam_from_camera, parent, parent_from_kf)
         self.loop_closer.submit(kf.id)
         return kf.id
@@ -211,7 +217,7 @@ class SlamSystem:
         the frame with that stamp (z up, z = 0 on the floor, x along the first keyframe's view
         direction; RGBDOdometry.anchor_to_floor's frame). A map already anchored (or a loaded
         one) keeps its frame; a stamp no longer (or never) tracked raises ValueError."""
-        if self.map.anchored:
+        if self.map.anchored or self.localisation_only:
             return
         key = min(self._history, key=lambda s: abs(s - stamp), default=None)
         if key is None or abs(key - stamp) > STAMP_TOLERANCE_S:
@@ -223,11 +229,12 @@ class SlamSystem:
     def snapshot(self, max_landmarks: int = 5000) -> MapSnapshot:
         from raspv_slam.floor_occupancy import floor_occupancy
 
-        poses = self.map.poses()
+        permanent = set(self.map.permanent)
+        poses = {k: p for k, p in self.map.poses().items() if k in permanent}
         with self.map.lock:
             world_from_slam = self.map.world_from_slam.copy()
             edges = list(self.map.edges)
-            keyframes = dict(self.map.keyframes)
+            keyframes = {k: kf for k, kf in self.map.keyframes.items() if k in permanent}
         per_kf = max(1, max_landmarks // max(1, len(keyframes)))
         points = []
         for k, kf in keyframes.items():
@@ -249,14 +256,18 @@ class SlamSystem:
         poses = self.map.poses()
         with self.map.lock:
             world_from_slam = self.map.world_from_slam.copy()
-        stamps = np.array([t for t, _, _ in self._trajectory])
-        out = np.array([world_from_slam @ poses[ref] @ rel for _, ref, rel in self._trajectory]).reshape(-1, 4, 4)
+        kept = [(t, ref, rel) for t, ref, rel in self._trajectory if ref in poses]   # localisation drops transients
+        stamps = np.array([t for t, _, _ in kept])
+        out = np.array([world_from_slam @ poses[ref] @ rel for _, ref, rel in kept]).reshape(-1, 4, 4)
         return stamps, out
 
     def save(self, path: str | Path) -> None:
-        """Write the map into the folder ``path`` (see :mod:`raspv_slam.map_store`)."""
+        """Write the map into the folder ``path`` (see :mod:`raspv_slam.map_store`). A map loaded
+        for localisation is never written (ValueError)."""
         from raspv_slam.map_store import save_map
 
+        if self.localisation_only:
+            raise ValueError("a map loaded for localisation is not saved: it stays as it is on disk")
         if self.loop_closer is not None:
             self.loop_closer.wait_idle()
         save_map(self.map, path)
