@@ -43,6 +43,7 @@ GATED: dict[str, tuple[str, ...]] = {
     "nav": (),
     "twin": ("--no-fidelity",),
     "budget": (),
+    "slam": (),
 }
 ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 RASPV = (sys.executable, "-m", "raspv_bringup.cli")

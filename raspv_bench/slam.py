@@ -9,14 +9,19 @@ run side by side in this process on one core (OpenCV and Open3D at one thread):
   SLAM benchmarks evaluate) and on the poses it gave online, frame by frame;
 - frames tracked / predicted (motion model) / relocalised / lost;
 - time per frame: wall clock of ``process`` (median, p95, max) and the tracking thread's own
-  CPU time (what a loaded machine inflates least), the ratio SLAM / odometry, and the slowest
-  frames while the loop closer was optimising (does it stall tracking?);
+  CPU time (what a loaded machine inflates least), the two systems fed each frame in
+  alternation; the slowest frames while the loop closer was working (does it stall tracking?);
 - memory: resident-set growth during the run and the map's own size per keyframe;
 - ``--split``: a map built on the first half of the sequence, saved and loaded in localisation
   mode, places the frames of the second half (share placed, first relocalisation, ATE);
 - place recognition recall: for each keyframe that revisits a place (an earlier, non-recent
   keyframe within 0.3 m and 20° by the ground truth), whether one is among the database's
   candidates.
+
+Ratios (``measure``, gated on the quick mode by tests/bench/test_bench_ratios.py, floors in
+docs/claims.yaml): ``odometry_ate`` = the odometry's ATE / the SLAM's (how many times smaller
+our error), ``odometry_cpu`` = the odometry's CPU per frame / the SLAM tracking thread's (below 1:
+SLAM costs more; with the odometry's quiet 11.4 ms, 0.35 is the 33 ms target).
 
 Sequences: the path arguments, else ``$RASPV_SLAM_SEQUENCES`` (paths separated by ``:``),
 else ``/work/shared/data/sequences/tum_fr1_rpy`` when it exists (not in the repository).
@@ -71,14 +76,26 @@ def _rss_mb() -> float:
     return psutil.Process().memory_info().rss / 2**20
 
 
-def run_slam(frames, intrinsics, config, slam_map=None, localisation_only=False):
-    """Run the SLAM core over ``frames``; returns a dict of what was measured."""
+def run_slam(frames, intrinsics, config, slam_map=None, localisation_only=False, odometry: bool = False):
+    """Run the SLAM core over ``frames`` — and, with ``odometry``, ``RGBDOdometry`` on the same
+    frames in alternation (each frame to the odometry, then to SLAM); returns what was measured."""
+    from raspv_perception.rgbd_odometry import OdometryConfig, RGBDOdometry
     from raspv_slam.slam_system import SlamSystem
 
     rss0, peak = _rss_mb(), 0.0
     slam = SlamSystem(intrinsics, config, slam_map, localisation_only)
+    odo = RGBDOdometry(OdometryConfig(threads=1)) if odometry else None
     results, wall, cpu, busy = [], [], [], []
+    o = {"stamps": [], "poses": [], "wall": [], "cpu": [], "tracked": 0}
     for i, f in enumerate(frames):
+        if odo is not None and f.rgb is not None and f.depth is not None:
+            t0, c0 = time.perf_counter(), time.thread_time()
+            step = odo.process(f.rgb, f.depth, intrinsics)
+            o["wall"].append(1e3 * (time.perf_counter() - t0))
+            o["cpu"].append(1e3 * (time.thread_time() - c0))
+            o["tracked"] += step.tracked
+            o["stamps"].append(f.stamp)
+            o["poses"].append(step.world_from_camera)
         lc = slam.loop_closer
         optimising = lc is not None and lc.busy
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -93,26 +110,8 @@ def run_slam(frames, intrinsics, config, slam_map=None, localisation_only=False)
     peak = max(peak, _rss_mb() - rss0)
     slam.close()
     return {"slam": slam, "results": results, "wall": np.array(wall), "cpu": np.array(cpu), "busy": np.array(busy),
-            "final": (stamps, poses), "memory_mb": peak}
-
-
-def run_odometry(frames, intrinsics):
-    from raspv_perception.rgbd_odometry import OdometryConfig, RGBDOdometry
-
-    odo = RGBDOdometry(OdometryConfig(threads=1))
-    stamps, poses, wall, cpu, tracked = [], [], [], [], 0
-    for f in frames:
-        if f.rgb is None or f.depth is None:
-            continue
-        t0, c0 = time.perf_counter(), time.thread_time()
-        step = odo.process(f.rgb, f.depth, intrinsics)
-        wall.append(1e3 * (time.perf_counter() - t0))
-        cpu.append(1e3 * (time.thread_time() - c0))
-        tracked += step.tracked
-        stamps.append(f.stamp)
-        poses.append(step.world_from_camera)
-    return {"stamps": np.array(stamps), "poses": np.array(poses), "wall": np.array(wall), "cpu": np.array(cpu),
-            "tracked": tracked, "frames": len(stamps)}
+            "final": (stamps, poses), "memory_mb": peak,
+            "odometry": {k: np.array(v) if isinstance(v, list) else v for k, v in o.items()}}
 
 
 def place_recall(slam, gt: dict[float, np.ndarray], candidates: int) -> tuple[int, int]:
@@ -150,7 +149,7 @@ def _row(name: str, e, tracked: str, wall, cpu, extra: str = "") -> None:
           f"{_pct(wall, 95):5.1f}  cpu ms median {np.median(cpu):5.1f} p95 {_pct(cpu, 95):5.1f}{extra}")
 
 
-def bench_sequence(path: Path, args) -> None:
+def bench_sequence(path: Path, args) -> dict[str, float]:
     from raspv_slam.config import SlamConfig
     from raspv_slam.recordings import open_recording
 
@@ -159,12 +158,12 @@ def bench_sequence(path: Path, args) -> None:
     gt = [(f.stamp, f.groundtruth) for f in frames if f.groundtruth is not None]
     if len(gt) < 3:
         print(f"{path}: no ground truth; skipped")
-        return
+        return {}
     gt_stamps, gt_poses = np.array([t for t, _ in gt]), np.array([p for _, p in gt])
     config = SlamConfig(distortion=rec.distortion, threads=1)
     print(f"\n{path} ({len(frames)} frames, {rec.intrinsics.width}x{rec.intrinsics.height}, "
           f"distortion {'yes' if rec.distortion else 'no'}); load average {_load()}")
-    s = run_slam(frames, rec.intrinsics, config)
+    s = run_slam(frames, rec.intrinsics, config, odometry=True)
     slam = s["slam"]
     online = [(r.stamp, r.map_from_camera) for r in s["results"] if r.map_from_camera is not None]
     e_final = _errors(gt_stamps, gt_poses, *s["final"])
@@ -172,7 +171,8 @@ def bench_sequence(path: Path, args) -> None:
     c = slam.counts
     n = max(1, c["frames"])
     tracked = f"tracked {100 * (c['tracked'] + c['relocalised']) / n:5.1f} %"
-    o = run_odometry(frames, rec.intrinsics)
+    o = s["odometry"]
+    o["frames"] = len(o["stamps"])
     e_odo = _errors(gt_stamps, gt_poses, o["stamps"], o["poses"])
     print(f"  {'method':<18} (ATE: RMSE after SE(3) alignment; RPE: RMSE over 1 s; time per {rec.intrinsics.width}x"
           f"{rec.intrinsics.height} frame, one core)")
@@ -182,10 +182,12 @@ def bench_sequence(path: Path, args) -> None:
     print(f"  SLAM frames: {c['tracked']} tracked ({c['to_last_frame']} through the last frame), {c['predicted']} "
           f"predicted by the motion model, {c['relocalised']} relocalised, {c['lost']} lost, {c['loops']} with a "
           f"loop correction")
+    ratios = {}
     if e_final and e_odo:
-        print(f"  ratio: ATE odometry / SLAM = {e_odo.ate_rmse / e_final.ate_rmse:.1f}x; "
-              f"time SLAM / odometry = {np.median(s['wall']) / np.median(o['wall']):.2f}x wall, "
-              f"{np.median(s['cpu']) / np.median(o['cpu']):.2f}x cpu")
+        ratios = {"odometry_ate": e_odo.ate_rmse / e_final.ate_rmse,
+                  "odometry_cpu": float(np.median(o["cpu"]) / np.median(s["cpu"]))}
+        print(f"  ATE odometry / SLAM = {ratios['odometry_ate']:.1f}x; time SLAM / odometry = "
+              f"{np.median(s['wall']) / np.median(o['wall']):.2f}x wall, {1 / ratios['odometry_cpu']:.2f}x cpu")
     lc = slam.loop_closer
     busy = s["wall"][s["busy"]]
     idle = s["wall"][~s["busy"]]
@@ -207,6 +209,7 @@ def bench_sequence(path: Path, args) -> None:
               f"{config.loop_candidates} candidates (recall {100 * hits / total:.0f} %)")
     if args.split:
         bench_split(frames, rec, config, gt_stamps, gt_poses)
+    return ratios
 
 
 def bench_split(frames, rec, config, gt_stamps, gt_poses) -> None:
@@ -235,11 +238,21 @@ def _load() -> str:
     return " ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
-def run(args: argparse.Namespace) -> int:
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """Run every sequence; the ratios of the first one with ground truth."""
     import cv2
 
     cv2.setNumThreads(1)
+    ratios: dict[str, float] = {}
     for path in _sequences(args):
-        bench_sequence(path, args)
+        got = bench_sequence(path, args)
+        ratios = ratios or got
     print(f"\nload average at the end {_load()} (on a loaded machine compare the ratios)")
+    return ratios
+
+
+def run(args: argparse.Namespace) -> int:
+    from raspv_bench.ratios import report
+
+    report(args, measure(args))
     return 0

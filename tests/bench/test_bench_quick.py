@@ -2,7 +2,7 @@
 prints its figures. Figures are not asserted here (no timing assertions in tests; the ratios
 against peers are gated by tests/bench/test_bench_ratios.py); a bench that breaks is found here,
 not by a user. `sim`, `qoe`, `twin` and `learned` have their own tests (they also check what their
-quick runs print); `spv`, `scene`, `nav` and `budget` run in full in the ratio gate."""
+quick runs print); `spv`, `scene`, `nav`, `budget` and `slam` run in full in the ratio gate."""
 from __future__ import annotations
 
 import os
@@ -23,6 +23,7 @@ OWN_TESTS = {"sim": "tests/sim/test_sim_bench_quick.py", "qoe": "tests/hmd/test_
              # run in full, their ratios gated, by the ratio gate (which `bench ratios` runs too)
              "spv": "tests/bench/test_bench_ratios.py", "scene": "tests/bench/test_bench_ratios.py",
              "nav": "tests/bench/test_bench_ratios.py", "budget": "tests/bench/test_bench_ratios.py",
+             "slam": "tests/bench/test_bench_ratios.py",
              "ratios": "tests/bench/test_bench_ratios.py"}
 # what each bench prints when it measured something (a figure with its unit)
 FIGURE = re.compile(r"\d+(\.\d+)?\s*(ms|s|Hz|x|MB|%|fps|frames/s)\b")
