@@ -26,7 +26,7 @@ cd "$WORK/elsewhere"
 "$WORK/venv/bin/raspv" launch demo --check
 # the demo itself, headless, until the bridge prints the client's address (then Ctrl-C)
 LOG=$WORK/demo.log
-"$WORK/venv/bin/raspv" demo bridge.port:=0 > "$LOG" 2>&1 &
+"$WORK/venv/bin/raspv" demo bridge.port:=0 bridge.tcp_port:=-1 > "$LOG" 2>&1 &
 PID=$!
 for _ in $(seq 240); do
   if grep -q "http://" "$LOG"; then break; fi

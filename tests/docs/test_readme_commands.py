@@ -37,7 +37,7 @@ def readme_commands() -> list[str]:
 
 # README command -> the script lines that run it (README's text itself, plus what cuts it short)
 RUNS = {
-    "make demo": 'make -C "$ROOT" demo DEMO_ARGS=bridge.port:=0 > demo.log 2>&1 &\n'
+    "make demo": 'make -C "$ROOT" demo DEMO_ARGS="bridge.port:=0 bridge.tcp_port:=-1" > demo.log 2>&1 &\n'
                  'until grep -q "headset client: open" demo.log; do sleep 0.5; kill -0 %1 || exit 1; done',
     "source .venv/bin/activate": 'source "$ROOT/.venv/bin/activate"\n'
                                  'raspv echo /camera/color/camera_info --once --wait 90 > /dev/null',
