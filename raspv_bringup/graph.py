@@ -198,7 +198,7 @@ def graph_from_doc(doc: Any, path: str | Path, overrides: list[str] | None = Non
         values = dict(sections.get(node.name, {}))
         builtin = {k: values.pop(k) for k in list(values) if k in GLOBAL_PARAMS}
         good, bad = schema.validate(values)
-        for key, message in bad:
+        for key, message in bad + schema.check_together({**node.params, **good}):
             errors.append(f"{path}: {node.name}.ros__parameters.{key}: {message}")
         if check_files:
             for key, message in check_named_files(schema, {**node.params, **good}, checked):

@@ -22,5 +22,6 @@ def run(args: argparse.Namespace) -> int:
         unit = f" [{p.unit}]" if p.unit else ""
         flag = "" if p.dynamic else " (fixed at start)"
         names = f"; names a {p.file_kind} file, checked before start" if p.file_kind else ""
+        names += f"; {p.pairing()}" if p.pairing() else ""
         print(f"{p.name:<24} = {p.default!r:<14} {p.description}{unit}; {p.allowed()}{names}{flag}")
     return 0

@@ -89,6 +89,7 @@ class RaspvNode(Node):
             self.set_parameters(empty)
         raw = {p.name: _plain(self.get_parameter(p.name).value) for p in self._schema}
         values, errors = self._schema.validate(raw)
+        errors = errors or self._schema.check_together(values)
         if errors:
             raise ConfigurationError("; ".join(f"parameter '{k}': {m}" for k, m in errors))
         self.params: dict[str, Any] = values
@@ -123,6 +124,9 @@ class RaspvNode(Node):
                 return SetParametersResult(successful=False, reason=f"'{prm.name}': {exc}")
         if not changes:
             return SetParametersResult(successful=True)
+        together = self._schema.check_together({**self.params, **changes})
+        if together:
+            return SetParametersResult(successful=False, reason="; ".join(f"'{k}': {m}" for k, m in together))
         try:
             reason = self.on_parameters(changes)
         except Exception as exc:  # a failure to apply must not kill the node nor half-apply

@@ -23,6 +23,12 @@ class Param:
     says whether it may change while the node runs (``raspv param set``). ``file_kind`` says
     the value names a file of that kind (``raspv_bringup/file_kinds.py``: world, device, map,
     bag, …), checked before a graph starts.
+
+    Parameters that only work together say so: ``needs`` names parameters that must be set too
+    when this one is set (with ``needs_when``: only when its value is one of those), ``excludes``
+    those that must not be set with it (declare it on one side). "Set" means not empty ("", [],
+    False, 0, None). The
+    launcher (and ``--check``) and the node refuse a graph breaking them in one line each.
     """
 
     name: str
@@ -34,6 +40,9 @@ class Param:
     dynamic: bool = True
     unit: str = ""
     file_kind: str = ""
+    needs: tuple[str, ...] = ()
+    needs_when: tuple[Any, ...] = ()
+    excludes: tuple[str, ...] = ()
 
     @property
     def kind(self) -> type:
@@ -62,6 +71,16 @@ class Param:
         elif self.maximum is not None:
             parts.append(f"<= {self.maximum}")
         return " ".join(parts)
+
+    def pairing(self) -> str:
+        """What this parameter needs or excludes, for references ("" when nothing)."""
+        parts = []
+        if self.needs:
+            when = f" when {' or '.join(repr(v) for v in self.needs_when)}" if self.needs_when else ""
+            parts.append(f"needs {', '.join(self.needs)}{when}")
+        if self.excludes:
+            parts.append(f"not with {', '.join(self.excludes)}")
+        return "; ".join(parts)
 
     def coerce(self, value: Any) -> Any:
         """Return ``value`` converted to this parameter's type, or raise ``ValueError`` saying
@@ -116,6 +135,10 @@ class ParamSchema:
                 raise ValueError(f"parameter {p.name!r} declared twice")
             p.coerce(p.default)  # a schema whose default is invalid is a programming error
             out[p.name] = p
+        for p in out.values():
+            unknown = [o for o in p.needs + p.excludes if o not in out]
+            if unknown:
+                raise ValueError(f"parameter {p.name!r} needs or excludes unknown {', '.join(unknown)}")
         return cls(out)
 
     def __contains__(self, name: str) -> bool:
@@ -145,3 +168,33 @@ class ParamSchema:
             except ValueError as exc:
                 errors.append((key, str(exc)))
         return good, errors
+
+    def check_together(self, values: Mapping[str, Any]) -> list[tuple[str, str]]:
+        """Check the parameters that only work together (``Param.needs``, ``Param.excludes``) on
+        ``values`` (names missing from it take their defaults). Returns (key, message) errors."""
+        full = {**self.defaults(), **{k: v for k, v in values.items() if k in self.params}}
+        errors: list[tuple[str, str]] = []
+        for p in self:
+            value = full[p.name]
+            if not is_set(value):
+                continue
+            if p.needs and (not p.needs_when or value in p.needs_when):
+                for other in p.needs:
+                    if is_set(full[other]):
+                        continue
+                    if p.needs_when:
+                        errors.append((p.name, f"{value!r} needs {other}, which is not set"))
+                    elif p.name in self.params[other].needs:
+                        errors.append((p.name, f"set without {other}: {p.name} and {other} only work together "
+                                               f"(set both or neither)"))
+                    else:
+                        errors.append((p.name, f"needs {other}, which is not set"))
+            for other in p.excludes:
+                if is_set(full[other]):
+                    errors.append((p.name, f"{p.name} and {other} are both set: give one of them"))
+        return errors
+
+
+def is_set(value: Any) -> bool:
+    """Whether a parameter value counts as given: not "", [], False, 0 or None."""
+    return value not in ("", None, False) and not (isinstance(value, (list, tuple)) and not value)

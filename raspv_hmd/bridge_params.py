@@ -22,8 +22,8 @@ PARAMS = [
     Param("max_refused", 20, "refused messages after which a client is dropped", minimum=1, maximum=10000,
           dynamic=False),
     Param("tls_cert", "", "PEM certificate: serve https/wss (WebXR needs it off localhost)", dynamic=False,
-          file_kind="tls_certificate"),
-    Param("tls_key", "", "PEM private key of tls_cert", dynamic=False, file_kind="pem"),
+          file_kind="tls_certificate", needs=("tls_key",)),
+    Param("tls_key", "", "PEM private key of tls_cert", dynamic=False, file_kind="pem", needs=("tls_cert",)),
     Param("audio_cues", ["waypoint", "obstacle", "stairs"], "spatial audio cues sent to the clients (from "
           "/nav/guidance and /stairs; empty: none); each client switches them on with 'm'",
           choices=("waypoint", "obstacle", "stairs"), dynamic=False),

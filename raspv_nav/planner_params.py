@@ -3,7 +3,7 @@ from raspv_common.params import Param
 
 PARAMS = [
     Param("map", "", "map_server YAML of the building (e.g. from `raspv sim map`); or use 'world'", dynamic=False,
-          file_kind="map"),
+          file_kind="map", excludes=("world",)),
     Param("world", "", "simulator world (name or file): its structural map (walls, doors, stairs) is the building map",
           dynamic=False, file_kind="world"),
     Param("slam_map", "", "a saved SLAM map aligned to this building (raspv slam align): its stored alignment "

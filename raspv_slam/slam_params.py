@@ -5,7 +5,8 @@ PARAMS = [
     Param("map", "", "a saved map to load (a name in the maps folder or a path); empty: start a new map",
           dynamic=False, file_kind="slam_map"),
     Param("mode", "mapping", "mapping: build the map (a loaded one is continued); localisation: localise in the "
-          "loaded map without changing it (needs 'map')", choices=("mapping", "localisation"), dynamic=False),
+          "loaded map without changing it (needs 'map')", choices=("mapping", "localisation"), dynamic=False,
+          needs=("map",), needs_when=("localisation",)),
     Param("save_to", "", "where mapping saves the map (a name in the maps folder or a path); empty: back to 'map', "
           "or a new name from the date when 'map' is empty too", dynamic=False),
     Param("save_on_exit", True, "mapping: save the map when the node stops (Ctrl-C, SIGTERM)", dynamic=False),

@@ -43,3 +43,22 @@ def test_schema_rejects_duplicates_and_bad_defaults():
         ParamSchema.of([Param("a", 1, ""), Param("a", 2, "")])
     with pytest.raises(ValueError):
         ParamSchema.of([Param("a", 5, "", maximum=3)])
+
+
+def test_parameters_that_only_work_together():
+    schema = ParamSchema.of([
+        Param("cert", "", "certificate", needs=("key",)),
+        Param("key", "", "its key", needs=("cert",)),
+        Param("mode", "build", "mode", choices=("build", "follow"), needs=("map",), needs_when=("follow",)),
+        Param("map", "", "map file", excludes=("world",)),
+        Param("world", "", "world"),
+    ])
+    assert schema.check_together({}) == []
+    assert schema.check_together({"cert": "c", "key": "k", "mode": "follow", "map": "m"}) == []
+    assert schema.check_together({"key": "k"}) == [
+        ("key", "set without cert: key and cert only work together (set both or neither)")]
+    assert schema.check_together({"mode": "follow"}) == [("mode", "'follow' needs map, which is not set")]
+    assert schema.check_together({"map": "m", "world": "w"}) == [("map", "map and world are both set: give one of them")]
+    assert schema["mode"].pairing() == "needs map when 'follow'" and schema["map"].pairing() == "not with world"
+    with pytest.raises(ValueError, match="unknown nope"):
+        ParamSchema.of([Param("a", "", "", needs=("nope",))])

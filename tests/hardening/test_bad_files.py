@@ -319,3 +319,31 @@ def test_a_file_kind_can_be_registered_and_can_read_the_other_parameters(tmp_pat
         assert "unknown file kind 'nope'" in check_file("nope", "x")
     finally:
         FILE_KINDS.pop("test_model", None)
+
+
+PEM = "-----BEGIN CERTIFICATE-----\nMIIB\n-----END CERTIFICATE-----\n"
+
+
+def test_half_a_tls_pair_and_other_parameters_that_only_work_together_are_one_line(tmp_path):
+    """Issue 36: `--check` passed tls_cert without tls_key (the bridge then restarted five times
+    and the graph stopped); so did slam's localisation without a map, and a planner given both a
+    map and a world. Each is one line naming the parameter and what it needs."""
+    (tmp_path / "cert.pem").write_text(PEM)
+    graph = tmp_path / "bridge.yaml"
+    graph.write_text(yaml.safe_dump({"launch": {"nodes": [{"kind": "bridge"}, {"kind": "slam"}, {"kind": "planner"}]}}))
+    res = _launch(graph, f"bridge.tls_cert:={tmp_path / 'cert.pem'}", "--check")
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and "Traceback" not in res.stderr and len(lines) == 1, res.stderr
+    assert f"{graph}: bridge.ros__parameters.tls_cert: set without tls_key" in lines[0], lines
+    for overrides, line in [
+        ([f"bridge.tls_key:={tmp_path / 'cert.pem'}"], "bridge.ros__parameters.tls_key: set without tls_cert: "
+                                                       "tls_key and tls_cert only work together (set both or neither)"),
+        (["slam.mode:=localisation"], "slam.ros__parameters.mode: 'localisation' needs map, which is not set"),
+        ([f"planner.map:={tmp_path / 'room.yaml'}", "planner.world:=office"],
+         "planner.ros__parameters.map: map and world are both set: give one of them"),
+    ]:
+        with pytest.raises(GraphError) as err:
+            load_graph(graph, overrides, check_files=False)
+        assert err.value.errors == [f"{graph}: {line}"]
+    pair = [f"bridge.tls_cert:={tmp_path / 'cert.pem'}", f"bridge.tls_key:={tmp_path / 'cert.pem'}"]
+    assert load_graph(graph, pair + ["slam.mode:=localisation", "slam.map:=office"], check_files=False)

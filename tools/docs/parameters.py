@@ -40,6 +40,7 @@ def parameters_markdown() -> str:
                 "| parameter | default | unit | allowed | changes | description |", "|---|---|---|---|---|---|"]
         for p in schema_for(kind):
             allowed = p.allowed() + (f"; names a {p.file_kind} file, checked before start" if p.file_kind else "")
+            allowed += f"; {p.pairing()}" if p.pairing() else ""
             out.append(f"| `{p.name}` | {_cell(_value(p.default))} | {_cell(p.unit)} | {_cell(allowed)} | "
                        f"{'run time' if p.dynamic else 'at start'} | {_cell(p.description)} |")
     return "\n".join(out) + "\n"
