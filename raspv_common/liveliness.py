@@ -45,6 +45,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProf
 from std_msgs.msg import String
 
 from raspv_common import process_state as proc
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 
 ALIVE_PREFIX = "/raspv/alive"
 LEASE_S = 0.2          # a node's process asserts its liveliness within this [s] (DDS automatic liveliness)
@@ -172,8 +173,10 @@ class ProducerWatch:
             for topic in set(self._topics.values()):
                 try:
                     infos = self.node.get_publishers_info_by_topic(topic)
-                except Exception:  # noqa: BLE001 - the context is shutting down
-                    return
+                except SHUTDOWN_ERRORS as exc:
+                    if during_shutdown(exc, self.node.context):
+                        return
+                    raise
                 names = frozenset(_fqn(i.node_namespace, i.node_name) for i in infos) - {self._own}
                 self._publishers[topic] = names
                 for name in names:
@@ -183,8 +186,10 @@ class ProducerWatch:
                     if not p.heard:             # until it is heard: is its alive publisher (still) there?
                         try:
                             p.announces = bool(self.node.get_publishers_info_by_topic(alive_topic(name)))
-                        except Exception:  # noqa: BLE001 - the context is shutting down
-                            return
+                        except SHUTDOWN_ERRORS as exc:
+                            if during_shutdown(exc, self.node.context):
+                                return
+                            raise
 
     def _subscribe(self, name: str) -> _Producer:
         p = _Producer()

@@ -69,10 +69,13 @@ class GraphClient:
         self._thread.start()
 
     def _spin(self) -> None:
+        from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
+
         try:
             self.executor.spin()
-        except Exception:  # noqa: BLE001 - the context was shut down
-            pass
+        except SHUTDOWN_ERRORS as exc:               # the context was shut down: the spin ends
+            if not during_shutdown(exc, self.context):
+                raise
 
     def close(self) -> None:
         try:

@@ -28,6 +28,7 @@ from raspv_common.frames import BASE_LINK
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.param_client import ParamClient
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_hmd.audio_cues import CueSettings
 from raspv_hmd.bridge_frames import BridgeFrames
 from raspv_hmd.bridge_params import PARAMS
@@ -243,8 +244,9 @@ class BridgeNode(BridgeFrames, RaspvNode):
             try:
                 if self.pub_cmd is not None:
                     self.pub_cmd.publish(Twist())        # leave the avatar standing
-            except Exception:  # noqa: BLE001 - the context may already be shut down
-                pass
+            except SHUTDOWN_ERRORS as exc:              # the context may already be shut down
+                if not during_shutdown(exc, self.context):
+                    raise
             stats = server.stats()
             server.stop()
             self._close_frames()

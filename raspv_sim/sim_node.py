@@ -37,6 +37,7 @@ from raspv_common import frames, topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.tf_messages import StaticTfBroadcaster, TfBroadcaster
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
@@ -261,8 +262,10 @@ class SimNode(SimGazeLog, RaspvNode):
             try:
                 with sub.handle:
                     taken = sub.handle.take_message(sub.msg_type, sub.raw)
-            except Exception:  # noqa: BLE001 - a destroyed handle at shutdown: nothing to take
-                continue
+            except SHUTDOWN_ERRORS as exc:          # a destroyed handle at shutdown: nothing to take
+                if during_shutdown(exc, self.context):
+                    continue
+                raise
             if taken is not None:
                 sub.callback(taken[0])
 

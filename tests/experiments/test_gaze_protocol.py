@@ -5,6 +5,7 @@ trial records and the report carry the gaze metrics. Real processes: ``raspv exp
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 import yaml
@@ -37,7 +38,8 @@ def test_locked_vs_contingent_with_a_scripted_subject_and_its_gaze_metrics(examp
         # 5 s of sim time at 120 Hz from the model: ~16 fixations of ~0.28 s, saccades of a few degrees
         assert g["samples"] > 400 and 4 <= g["fixations"] <= 30 and g["saccades"] >= 3
         assert 1.0 < g["mean_saccade_amplitude_deg"] < 15.0 and 0.8 <= g["valid_share"] <= 1.0
-        assert (tmp_path / r["run_dir"]).exists() or (out / r["run_dir"]).exists() or r["run_dir"]
+        run_dir = Path(r["run_dir"])                     # the trial's log, in this session's folder
+        assert run_dir.is_relative_to(out / "gaze_study") and (run_dir / "gaze.csv").is_file()
     # the same subject's eyes are reseeded per trial: the two trials' gaze differs
     assert records[0]["gaze"] != records[1]["gaze"]
     finish(raspv("experiment", "report", str(out), "-o", str(tmp_path / "report")), timeout=120)

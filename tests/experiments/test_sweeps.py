@@ -10,6 +10,7 @@ from raspv_experiments.report import build_report
 from raspv_experiments.session import read_jsonl
 from raspv_experiments.sweep import _store, load_sweep, run_sweep
 from raspv_bringup.testing import dev_requirement
+from raspv_common.ros_domains import HIGH, LOW
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -28,10 +29,12 @@ def short_sweep(tmp_path, subjects: int = 2, policy: str = "wander_avoid", repet
     return load_sweep(tmp_path / "sweep.yaml")
 
 
-def check_sessions(results, out, subjects):
+def check_sessions(results, out, subjects, ros_domain):
     assert sorted(r["subject"] for r in results) == [f"scripted-wander_avoid-{n}" for n in range(1, subjects + 1)]
     assert all(r["code"] == 0 for r in results), [r["log"] for r in results]
-    assert len({r["domain"] for r in results}) == len(results) or len(results) == 1   # private domains
+    domains = [r["domain"] for r in results]
+    assert len(set(domains)) == len(domains), domains                  # each graph on a domain of its own,
+    assert all(LOW <= d < HIGH and d != ros_domain for d in domains), domains   # claimed, not the test's
     for r in results:
         records = read_jsonl(out / "sessions" / "short_sweep" / r["subject"] / "trials.jsonl")
         assert [x["condition"] for x in records] and {x["status"] for x in records} == {"completed"}
@@ -39,16 +42,16 @@ def check_sessions(results, out, subjects):
         assert all(0 < x["metrics"]["duration_s"] <= 5.2 for x in records)
 
 
-def test_sweep_on_worker_processes(tmp_path):
+def test_sweep_on_worker_processes(tmp_path, ros_domain):
     sweep = short_sweep(tmp_path)
     out = tmp_path / "out"
     results = run_sweep(sweep, out, workers=2, say=lambda s: None)
-    check_sessions(results, out, 2)
+    check_sessions(results, out, 2, ros_domain)
     page = build_report([out], tmp_path / "report").read_text()
     assert "4 trial records" in page and "mode=depth" in page
 
 
-def test_the_same_sweep_on_a_local_ray_instance(tmp_path):
+def test_the_same_sweep_on_a_local_ray_instance(tmp_path, ros_domain):
     ray = dev_requirement("ray")
     sweep = short_sweep(tmp_path, subjects=1)
     out = tmp_path / "out"
@@ -57,7 +60,7 @@ def test_the_same_sweep_on_a_local_ray_instance(tmp_path):
         results = run_sweep(sweep, out, ray_address="local", say=lambda s: None)
     finally:
         ray.shutdown()
-    check_sessions(results, out, 1)
+    check_sessions(results, out, 1, ros_domain)
     # a cluster without a shared disk: the node wrote the session on its own disk; the driver
     # stores it from the records the Ray task returned (through Ray's object store)
     driver = tmp_path / "driver_disk"

@@ -146,6 +146,19 @@ def test_the_node_parameter_and_the_shipped_encoders():
         model = load_encoder(shipped_model(device))
         assert model.device == device and model.channels == CHANNELS and model.num_levels == 8
         summary = json.loads(shipped_model(device).with_suffix(".json").read_text())
-        assert summary["config"] == device and summary["train_minutes"] <= 30
+        assert summary["config"] == device
+        # the encoder answers the scene, not only its own record: it stimulates the near box
+        # (obstacle) apart from the wall around it, and the box's place changes when the box goes
+        color, depth, labels = synthetic_frame()
+        with_box = model.stimulation(color, depth, labels, CAMERA)
+        rows, cols = with_box.shape
+        box = (slice(int(rows * 65 / 120), int(rows * 95 / 120)), slice(int(cols * 45 / 160), int(cols * 65 / 160)))
+        wall = (slice(int(rows * 10 / 120), int(rows * 50 / 120)), slice(int(cols * 90 / 160), int(cols * 150 / 160)))
+        assert abs(float(with_box[box].mean()) - float(with_box[wall].mean())) > 0.1, device
+        depth_no_box, labels_no_box = depth.copy(), labels.copy()
+        depth_no_box[60:100, 40:70] = depth[60:100, 100:130]
+        labels_no_box[60:100, 40:70] = labels[60:100, 100:130]
+        without = model.stimulation(color, depth_no_box, labels_no_box, CAMERA)
+        assert float(np.abs(with_box[box] - without[box]).mean()) > 0.3, device
     assert shipped_model("argus_ii").name == "optimist.onnx"                 # no encoder of its own: the fallback
     assert shipped_model("config/devices/argus_iii.yaml").name == "argus_iii.onnx"
