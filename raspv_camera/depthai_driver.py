@@ -4,7 +4,8 @@ name, or a recording made with DepthAI's ``RecordMessage`` nodes.
 Live: the colour camera (CAM_A) at the size asked, stereo depth from CAM_B/CAM_C aligned to
 CAM_A on the device (``StereoDepth.setDepthAlign``; ``ImageAlign`` on RVC4), both paired by a
 ``Sync`` node; depth is RAW16 millimetres. The accelerometer (OAK-D and later) is read when
-present and rotated into the colour camera's optical frame with the device's calibration.
+present and rotated into the colour camera's optical frame with the device's calibration; a
+device whose calibration has no such rotation runs without the IMU, saying so in one line.
 Device search uses ``Device.getAllAvailableDevices()`` (≈0.5 s) before opening anything, so no
 device is a quick, clean error; opening uses ``DEPTHAI_SEARCH_TIMEOUT`` (``search_timeout``).
 
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import datetime
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -50,6 +52,21 @@ def _intrinsics(frame) -> CameraIntrinsics | None:
     return CameraIntrinsics.from_matrix(K, frame.getWidth(), frame.getHeight())
 
 
+class ImuCalibrationError(CameraError):
+    """The device's calibration has no usable IMU → colour camera rotation."""
+
+
+def imu_to_camera_rotation(calibration, dai) -> np.ndarray:
+    """(3, 3) rotation taking IMU axes to the colour camera's (CAM_A) optical frame, from a
+    ``dai.CalibrationHandler``; :class:`ImuCalibrationError` (one line) when the calibration
+    has none — never a guessed identity (a wrong gravity, silently)."""
+    try:
+        T = np.asarray(calibration.getImuToCameraExtrinsics(dai.CameraBoardSocket.CAM_A, True), dtype=np.float64)
+    except RuntimeError as exc:                  # depthai: "IMU calibration data is not available …"
+        raise ImuCalibrationError(f"no IMU-to-camera rotation in the device calibration ({exc})") from None
+    return T[:3, :3]                             # depthai keeps it a rotation (orthonormal, det 1) when set
+
+
 class DepthAIDriver(CameraDriver):
     sdk = "depthai"
     file_suffixes = (".mcap",)
@@ -61,7 +78,7 @@ class DepthAIDriver(CameraDriver):
         self.device_handle = None
         self.queues: dict[str, object] = {}
         self.imu_queue = None
-        self.imu_rotation = np.eye(3)
+        self.imu_rotation: np.ndarray | None = None    # IMU → colour optical frame, from the calibration
         self.intrinsics: CameraIntrinsics | None = None
         self._pending: dict[str, dict[int, object]] = {"depth": {}, "color": {}}
         self._unclassified: list[tuple[Path, object]] = []
@@ -146,17 +163,17 @@ class DepthAIDriver(CameraDriver):
             stereo.depth.link(sync.inputs["depth"])
         self.queues = {"sync": sync.out.createOutputQueue(maxSize=4, blocking=False)}
         if s.imu and dev.getConnectedIMU() not in ("", "NONE"):
-            imu = p.create(dai.node.IMU)
-            imu.enableIMUSensor(dai.IMUSensor.ACCELEROMETER_CALIBRATED, 100)
-            imu.setBatchReportThreshold(1)
-            imu.setMaxBatchReports(10)
-            self.imu_queue = imu.out.createOutputQueue(maxSize=50, blocking=False)
             try:
-                T = np.asarray(dev.readCalibration().getImuToCameraExtrinsics(dai.CameraBoardSocket.CAM_A, True))
-                self.imu_rotation = T[:3, :3]
-            except Exception:
-                self.imu_rotation = np.eye(3)
-            self.has_imu = True
+                self.imu_rotation = imu_to_camera_rotation(dev.readCalibration(), dai)
+            except ImuCalibrationError as exc:     # refused: a guessed rotation would give a wrong gravity
+                print(f"camera: DepthAI {dev.getDeviceId()}: IMU off: {exc}", file=sys.stderr, flush=True)
+            else:
+                imu = p.create(dai.node.IMU)
+                imu.enableIMUSensor(dai.IMUSensor.ACCELEROMETER_CALIBRATED, 100)
+                imu.setBatchReportThreshold(1)
+                imu.setMaxBatchReports(10)
+                self.imu_queue = imu.out.createOutputQueue(maxSize=50, blocking=False)
+                self.has_imu = True
         self.pipeline = p
         p.start()
 

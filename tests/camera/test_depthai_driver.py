@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from raspv_camera.camera_driver import CameraSettings
-from raspv_camera.depthai_driver import DepthAIDriver
+from raspv_camera.depthai_driver import DepthAIDriver, ImuCalibrationError, imu_to_camera_rotation
 from raspv_camera.rgbd_frame import EndOfRecording, NoDevice
 
 
@@ -64,10 +64,25 @@ def test_the_live_pipeline_uses_api_this_depthai_has():
                          (dai.node.Sync, ("setSyncThreshold",)), (dai.node.IMU, ("enableIMUSensor", "setBatchReportThreshold",
                                                                                   "setMaxBatchReports")),
                          (dai.Device, ("getAllAvailableDevices", "getConnectedIMU", "readCalibration", "getPlatform",
-                                       "isClosed", "getUsbSpeed", "getDeviceName")),
+                                       "isClosed", "getUsbSpeed", "getDeviceName", "getDeviceId")),
                          (dai.CalibrationHandler, ("getImuToCameraExtrinsics", "getCameraIntrinsics")),
                          (dai.MessageQueue, ("get", "tryGetAll"))):
         for name in names:
             assert hasattr(owner, name), f"{owner.__name__}.{name}"
     assert hasattr(dai.IMUSensor, "ACCELEROMETER_CALIBRATED") and hasattr(dai.Platform, "RVC4")
     assert hasattr(dai.node, "ImageAlign") and hasattr(dai.CameraBoardSocket, "CAM_C")
+
+
+def test_the_imu_rotation_is_read_from_the_calibration_or_refused_in_one_line():
+    """A device calibration (depthai's own CalibrationHandler, built on the host): its IMU → CAM_A
+    rotation is used as it is; without one the IMU is refused, never taken as the identity."""
+    from raspv_camera import sdk_imports
+    dai = sdk_imports.depthai()
+    calibration = dai.CalibrationHandler()
+    calibration.setCameraIntrinsics(dai.CameraBoardSocket.CAM_A, [[500, 0, 320], [0, 500, 200], [0, 0, 1]], 640, 400)
+    with pytest.raises(ImuCalibrationError, match="no IMU-to-camera rotation") as info:
+        imu_to_camera_rotation(calibration, dai)
+    assert "\n" not in str(info.value)
+    turned = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]                     # IMU x → camera y (a quarter turn)
+    calibration.setImuExtrinsics(dai.CameraBoardSocket.CAM_A, turned, [0, 0, 0], [0, 0, 0])
+    assert np.array_equal(imu_to_camera_rotation(calibration, dai), np.array(turned, float))
