@@ -32,7 +32,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("raspv_bringup.render_cli", "render a bag into a phosphene video (mp4) and/or PNG frames, offline"),
     "learn": ("raspv_learn.learn_cli", "learned encoders: render the dataset, train through the differentiable twin, "
                                        "compare with the hand-designed modes"),
-    "slam": ("raspv_slam.slam_cli", "RGB-D SLAM: build a map from a recording, inspect a map, evaluate against ground truth"),
+    "slam": ("raspv_slam.slam_cli", "RGB-D SLAM: build a map from a recording, inspect a map, evaluate against ground truth, align a map to a building map"),
     "camera": ("raspv_camera.camera_cli", "real RGB-D cameras: list connected devices, show modes, import recordings"),
 }
 

@@ -204,12 +204,13 @@ def align_to_building(slam_grid: OccupancyGrid, building: OccupancyGrid, guess: 
     ty_all = coarse_origin[1] + rows * coarse_res - lo[1]
     tx_all = coarse_origin[0] + cols * coarse_res - lo[0]
     tx_grid, ty_grid = np.meshgrid(tx_all, ty_all)
-    inside = np.ones(shape, bool)
-    if guess is not None:
-        inside = np.hypot(tx_grid - guess.x, ty_grid - guess.y) <= guess.radius
     found: list[tuple[float, float, float, float]] = []       # (score, x, y, yaw_deg)
     for yaw_deg in yaws:
         yaw = math.radians(yaw_deg)
+        inside = np.ones(shape, bool)
+        if guess is not None:          # M's origin in B is the raster's shift + (centre − R centre)
+            offset = centre - _rotate(centre[None], yaw)[0]
+            inside = np.hypot(tx_grid + offset[0] - guess.x, ty_grid + offset[1] - guess.y) <= guess.radius
         spectrum = FL * np.conj(fft.rfft2(_raster(_rotate(occ - centre, yaw) + centre, lo, coarse_res, (D, D)),
                                           shape)) / len(occ)
         if len(free):

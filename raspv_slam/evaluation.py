@@ -4,6 +4,11 @@ ATE: absolute trajectory error, RMSE of the translation after an SE(3) (Umeyama,
 alignment of the estimate to the ground truth, poses associated by time stamp (≤ 20 ms, TUM's
 associate). RPE: relative pose error over 1 s (translation RMSE [m] and rotation RMSE [deg]),
 TUM's drift measure. Trajectories: TUM text files (``t tx ty tz qx qy qz qw``, camera to world).
+Rotations are re-orthonormalised (nearest rotation, SVD) before evo sees them: a pose chained
+over thousands of frames in float arithmetic drifts off SO(3) by more than evo's check allows.
+
+Texture drift (:func:`texture_drift`): how far a point fixed in the SLAM map (a Chess-Floor
+texture's corner) moves in the world between two moments — the user's view of drift.
 """
 from __future__ import annotations
 
@@ -27,10 +32,22 @@ class TrajectoryErrors:
     stamps: np.ndarray       # (matched,)
 
 
+def orthonormalised(poses) -> np.ndarray:
+    """Poses (N, 4, 4) with each rotation block replaced by the nearest rotation matrix (SVD,
+    determinant +1); translations unchanged."""
+    out = np.array(poses, dtype=np.float64).reshape(-1, 4, 4)
+    u, _, vt = np.linalg.svd(out[:, :3, :3])
+    flip = np.where(np.linalg.det(u @ vt) < 0, -1.0, 1.0)
+    u[:, :, 2] *= flip[:, None]
+    out[:, :3, :3] = u @ vt
+    out[:, 3] = (0.0, 0.0, 0.0, 1.0)
+    return out
+
+
 def _trajectory(stamps, poses):
     from evo.core.trajectory import PoseTrajectory3D
 
-    return PoseTrajectory3D(poses_se3=[np.asarray(p, dtype=np.float64) for p in poses],
+    return PoseTrajectory3D(poses_se3=list(orthonormalised(poses)),
                             timestamps=np.asarray(stamps, dtype=np.float64))
 
 
@@ -54,7 +71,7 @@ def write_trajectory(path: str | Path, stamps, poses) -> None:
     """Poses (N, 4, 4) camera to world → a TUM trajectory file."""
     from scipy.spatial.transform import Rotation
 
-    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
+    poses = orthonormalised(poses)
     q = Rotation.from_matrix(poses[:, :3, :3]).as_quat()          # x y z w
     rows = np.column_stack([np.asarray(stamps, dtype=np.float64), poses[:, :3, 3], q])
     np.savetxt(path, rows, fmt=["%.6f"] + ["%.6f"] * 7, header="timestamp tx ty tz qx qy qz qw")
@@ -89,6 +106,41 @@ def trajectory_errors(gt_stamps, gt_poses, est_stamps, est_poses, max_dt_s: floa
     return TrajectoryErrors(ape.get_statistic(metrics.StatisticsType.rmse), ape.get_statistic(metrics.StatisticsType.max),
                             float(rpe_t), float(rpe_r), ref.num_poses, np.asarray(est.poses_se3),
                             np.asarray(ref.poses_se3), np.asarray(est.timestamps))
+
+
+def _pose_at(stamps: np.ndarray, poses: np.ndarray, t: float, max_dt_s: float) -> np.ndarray:
+    i = int(np.argmin(np.abs(stamps - t)))
+    if abs(stamps[i] - t) > max_dt_s:
+        raise ValueError(f"no pose within {max_dt_s * 1e3:.0f} ms of t = {t:.3f} s")
+    return poses[i]
+
+
+def texture_drift(gt_stamps, gt_poses, est_stamps, est_poses, t_start: float, t_return: float,
+                  world_point, max_dt_s: float = MAX_DT_S) -> float:
+    """How far [m] a point fixed in the estimate's map frame M moves in the world W between
+    ``t_start`` and ``t_return`` [s]: the point is ``world_point`` (W, e.g. the floor point the
+    camera looks at when it starts) as placed at ``t_start``. At time t a map point q is drawn
+    where the world holds W ← C(t) · (M ← C(t))⁻¹ · q (truth times the inverse estimate), so a
+    drift-free map keeps it still. Poses: W ← C (ground truth) and M ← C (estimate)."""
+    gt_stamps, est_stamps = np.asarray(gt_stamps, float), np.asarray(est_stamps, float)
+    gt_poses, est_poses = orthonormalised(gt_poses), orthonormalised(est_poses)
+
+    def world_from_map(t: float) -> np.ndarray:
+        return _pose_at(gt_stamps, gt_poses, t, max_dt_s) @ np.linalg.inv(_pose_at(est_stamps, est_poses, t, max_dt_s))
+
+    p = np.append(np.asarray(world_point, float), 1.0)
+    q = np.linalg.inv(world_from_map(t_start)) @ p
+    return float(np.linalg.norm((world_from_map(t_return) @ q)[:3] - p[:3]))
+
+
+def floor_point_ahead(world_from_camera: np.ndarray, floor_z: float = 0.0) -> np.ndarray:
+    """Where the optical axis of W ← C meets the floor z = ``floor_z`` (W, z up); ValueError if
+    the camera does not look down."""
+    T = np.asarray(world_from_camera, float)
+    origin, axis = T[:3, 3], T[:3, 2]
+    if axis[2] >= -1e-6:
+        raise ValueError("the camera does not look at the floor")
+    return origin + axis * (floor_z - origin[2]) / axis[2]
 
 
 def plot_trajectories(path: str | Path, reference: np.ndarray, estimates: dict[str, np.ndarray], title: str) -> None:

@@ -59,3 +59,43 @@ def draw_map(slam_map: SlamMap, path: str | Path, title: str = "") -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def draw_alignment(slam_grid, building, alignment, path: str | Path, title: str = "") -> None:
+    """The SLAM map's floor occupancy (M) drawn on the building map (B) where ``alignment``
+    (B ← M) places it: building walls black, free floor white; the SLAM map's occupied cells red,
+    its free cells light blue. Axes: B's x and y [m]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows, cols = building.shape
+    image = np.full(building.shape, 0.75)
+    image[building.cells == FREE] = 1.0
+    image[building.cells == OCCUPIED] = 0.0
+    T = alignment.matrix()
+
+    def placed(value: int) -> np.ndarray:
+        xy = slam_grid.cell_to_world(np.argwhere(slam_grid.cells == value))
+        return xy @ T[:2, :2].T + T[:2, 3] if len(xy) else np.zeros((0, 2))
+
+    fig, ax = plt.subplots(figsize=(9, 9 * rows / max(cols, 1) + 1))
+    ax.imshow(image, cmap="gray", vmin=0, vmax=1, origin="lower", interpolation="nearest",
+              extent=(building.origin[0], building.origin[0] + cols * building.resolution,
+                      building.origin[1], building.origin[1] + rows * building.resolution))
+    free, occ = placed(FREE), placed(OCCUPIED)
+    size = max(0.5, 72 * slam_grid.resolution / max(rows, cols) * 60)
+    ax.scatter(free[:, 0], free[:, 1], s=size, marker="s", color="#9ecae1", alpha=0.35, lw=0, label="SLAM map: floor")
+    ax.scatter(occ[:, 0], occ[:, 1], s=size, marker="s", color="#d62728", lw=0, label="SLAM map: walls, obstacles")
+    ax.scatter([alignment.x], [alignment.y], s=60, marker="o", facecolor="none", edgecolor="green",
+               label="SLAM map origin")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m] (building map)")
+    ax.set_ylabel("y [m] (building map)")
+    ax.set_title(f"{title}: x {alignment.x:.2f} m, y {alignment.y:.2f} m, yaw {alignment.yaw_deg:.1f}°, "
+                 f"score {alignment.score:.2f}, matched {alignment.matched:.0%}")
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -3,12 +3,15 @@
     raspv slam build RECORDING -o MAP          # a RASPV bag or a frames folder (TUM layout, …)
     raspv slam inspect MAP -o top.png          # occupancy, keyframe trajectory, loop edges
     raspv slam evaluate RECORDING [--groundtruth GT.txt] [--map MAP] [-o plot.png]
+    raspv slam align MAP --building B.yaml [--guess X Y YAW] [-o overlay.png]
 
 RECORDING is anything ``raspv bag from-frames`` reads, or a bag. MAP is a folder, or a name in
 the maps directory (``$RASPV_MAPS_DIR``, else ``~/.local/share/raspv/maps``). ``build`` anchors
 the map to the floor the first time the scene perception finds one (as the ``scene`` node does
 for the live ``slam`` node). ``evaluate --map`` runs in localisation mode (the map is not
-changed) and reports how many frames were relocalised and how soon.
+changed) and reports how many frames were relocalised and how soon. ``align`` places the
+map's floor occupancy on a building map (map_server YAML + PGM) and stores the transform with
+the map, where the planner's ``slam_map`` parameter reads it.
 """
 from __future__ import annotations
 
@@ -35,6 +38,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     e.add_argument("--map", help="localise in this saved map instead of building one")
     e.add_argument("-o", "--output", help="trajectory plot PNG")
     e.add_argument("--trajectory", help="also write the estimated trajectory (TUM format)")
+    a = sub.add_parser("align", help="place a map on a building map (map_server YAML) and store the transform")
+    a.add_argument("map", help="map folder or name (built with a floor: it has occupancy.yaml)")
+    a.add_argument("--building", required=True, metavar="B.yaml", help="the building's map_server YAML")
+    a.add_argument("--guess", type=float, nargs=3, metavar=("X", "Y", "YAW"),
+                   help="rough placement of the map's origin on the building map: x, y [m], yaw [deg]")
+    a.add_argument("--radius", type=float, default=2.0, help="search radius round the guess [m] (default 2)")
+    a.add_argument("--yaw-range", type=float, default=30.0, metavar="DEG",
+                   help="yaw searched either side of the guess [deg] (default 30)")
+    a.add_argument("-o", "--output", help="PNG: the map's occupancy drawn on the building map")
 
 
 def _recording_arguments(p: argparse.ArgumentParser) -> None:
@@ -199,19 +211,59 @@ def run_evaluate(args) -> int:
     return 0
 
 
+def run_align(args) -> int:
+    from raspv_slam.building_alignment import AlignmentGuess, AmbiguousAlignment
+    from raspv_slam.building_map import ALIGNMENT_FILE, align_saved_map
+    from raspv_slam.map_store import resolve_map_path
+
+    guess = None
+    if args.guess is not None:
+        if args.radius <= 0 or args.yaw_range < 0:
+            print("raspv slam align: --radius must be > 0 and --yaw-range >= 0", file=sys.stderr)
+            return 2
+        guess = AlignmentGuess(*args.guess, radius=args.radius, yaw_range_deg=args.yaw_range)
+    t0 = time.perf_counter()
+    try:
+        a = align_saved_map(args.map, args.building, guess)
+    except AmbiguousAlignment as exc:
+        print(f"raspv slam align: {exc}", file=sys.stderr)
+        if args.output:
+            _draw_alignment(args, exc.best, "ambiguous, best")
+        return 1
+    print(f"building <- map: x {a.x:.3f} m, y {a.y:.3f} m, yaw {a.yaw_deg:.2f} deg; score {a.score:.3f}, "
+          f"matched {a.matched:.0%}, runner-up {a.runner_up_score:.3f} ({time.perf_counter() - t0:.1f} s)")
+    print(f"stored in {resolve_map_path(args.map) / ALIGNMENT_FILE} (planner parameter slam_map:={args.map})")
+    if args.output:
+        _draw_alignment(args, a, "aligned")
+    return 0
+
+
+def _draw_alignment(args, alignment, what: str) -> None:
+    from raspv_common.occupancy import load_map as load_occupancy
+    from raspv_slam.building_map import map_occupancy
+    from raspv_slam.map_picture import draw_alignment
+
+    draw_alignment(map_occupancy(args.map), load_occupancy(args.building), alignment, args.output,
+                   title=f"{Path(str(args.map)).name} {what}")
+    print(f"wrote {args.output}")
+
+
 def _localised(results):
     placed = [r for r in results if r.map_from_camera is not None]
     return np.array([r.stamp for r in placed]), np.array([r.map_from_camera for r in placed]).reshape(-1, 4, 4)
 
 
 def run(args) -> int:
+    from raspv_common.occupancy import MapFormatError
+    from raspv_slam.building_alignment import AlignmentError
     from raspv_slam.map_store import SlamMapError
     from raspv_slam.recordings import RecordingError
 
-    handler = {"build": run_build, "inspect": run_inspect, "evaluate": run_evaluate}[args.slam_command]
+    handler = {"build": run_build, "inspect": run_inspect, "evaluate": run_evaluate,
+               "align": run_align}[args.slam_command]
     try:
         return handler(args)
-    except (RecordingError, SlamMapError) as exc:
+    except (RecordingError, SlamMapError, MapFormatError, AlignmentError) as exc:
         print(f"raspv slam {args.slam_command}: {exc}", file=sys.stderr)
         return 2
     except ValueError as exc:         # bad intrinsics, unreadable ground truth, images of the wrong size
