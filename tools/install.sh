@@ -110,15 +110,20 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$STAMPED" ]; then
       fi
     fi;;
   esac
-  quiet_pip "${PIP_INSTALL[@]}" "${REQS[@]}" -c "$ROOT/requirements/constraints.txt" ||
+  # --no-warn-conflicts: open3d, dash, evo and gtsam (below) lack on purpose dependencies they declare
+  quiet_pip "${PIP_INSTALL[@]}" --no-warn-conflicts "${REQS[@]}" -c "$ROOT/requirements/constraints.txt" ||
     die "pip install failed (its error is above); nothing was marked installed: fix it and run make install again"
+  # without the dependencies they declare for parts the project never uses (Open3D's Jupyter
+  # viewer, evo's plots, GTSAM's tests: ~0.1 GB); what they need is in python.txt
+  quiet_pip "${PIP_INSTALL[@]}" --no-deps --no-warn-conflicts -r "$ROOT/requirements/no-deps.txt" ||
+    die "pip install --no-deps -r requirements/no-deps.txt failed (its error is above); nothing was marked installed: fix it and run make install again"
   # open3d and pyrealsense2 need libusb-1.0 at import: point the venv's lib/ (on the ROS wheels' library path)
   # at the copy shipped by the libusb-package wheel, so no system package is needed
   # (before the imports below: a machine without the system's libusb fails them otherwise).
   LIBUSB=$("$VPY" -c 'import libusb_package; print(libusb_package.get_library_path())')
   ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
-  "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets' ||
-    die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt"
+  "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets, open3d, gtsam, evo.tools.file_interface' ||
+    die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt && $VPY -m pip install --no-deps -r requirements/no-deps.txt"
   case " $WANT " in *" learn "*)
     "$VPY" -c 'import torch, onnx, tqdm' || die "the learn extra does not import (error above)"
     "$VPY" -c 'import sys, torch; sys.exit(0 if torch.version.cuda is None else 1)' ||
