@@ -13,14 +13,12 @@ header stamp (exactly, else nearest within a tolerance), decoded only when used;
 undecodable message, a depth image of another size, camera info for another resolution) are
 noted and handled; only what makes the whole render impossible raises :class:`RenderError`.
 
-:func:`render_bag` writes an mp4 (OpenCV ``VideoWriter``, mp4v, encoded in a second thread)
-and/or PNG frames; ``side_by_side`` puts the colour image and the mode's other inputs (depth as
+:func:`render_bag` writes an mp4 (:mod:`raspv_bags.video_sink`: mp4v through OpenCV, or H.264
+with the ``video`` extra; encoded in a second thread) and/or PNG frames; ``side_by_side`` puts the colour image and the mode's other inputs (depth as
 a colour map) next to the phosphenes.
 """
 from __future__ import annotations
 
-import queue
-import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -32,6 +30,7 @@ import numpy as np
 
 from raspv_bags.from_frames import FramesError, intrinsics_for
 from raspv_bags.reader import BagError, BagMessage, BagReader
+from raspv_bags.video_sink import VideoError, VideoSink, require_codec
 from raspv_common import topics as T
 from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, pose_to_matrix, rgb_from_image
 from raspv_common.frames import is_map_frame
@@ -72,6 +71,7 @@ class RenderSettings:
     pose_topic: str = T.CAMERA_POSE
     path_topic: str = T.NAV_PATH
     pair_tolerance_s: float = 0.02
+    codec: str = "mp4v"          # the video's: mp4v (OpenCV) or h264 (the video extra), raspv_bags.video_sink
 
     def spv_params(self) -> dict[str, Any]:
         """The spv node's parameter values: defaults plus :attr:`spv`, validated by the node's
@@ -454,44 +454,6 @@ class PanelComposer:
         return np.hstack(panels)
 
 
-class _VideoSink:
-    """mp4 through OpenCV's VideoWriter, fed from a queue by a thread (encoding overlaps the
-    simulation; OpenCV releases the GIL while it encodes)."""
-
-    def __init__(self, path: Path, fps: float, size: tuple[int, int], color: bool) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size, isColor=color)
-        if not self.writer.isOpened():
-            raise RenderError(f"{path}: OpenCV cannot write an mp4 video here (mp4v codec)")
-        self.size = size
-        self.q: queue.Queue = queue.Queue(maxsize=8)
-        self.error: BaseException | None = None
-        self.thread = threading.Thread(target=self._run, name="video", daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        while True:
-            frame = self.q.get()
-            if frame is None:
-                return
-            try:
-                self.writer.write(frame)
-            except BaseException as exc:  # keep draining so the producer never blocks
-                self.error = exc
-
-    def write(self, frame: np.ndarray) -> None:
-        if frame.shape[1::-1] != self.size:
-            raise RenderError(f"frame size changed from {self.size} to {frame.shape[1::-1]}")
-        self.q.put(frame)
-
-    def close(self) -> None:
-        self.q.put(None)
-        self.thread.join()
-        self.writer.release()
-        if self.error is not None:
-            raise RenderError(f"video encoding failed: {self.error}")
-
-
 def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | Path | None = None,
                settings: RenderSettings | None = None,
                progress: Callable[[float, float], None] | None = None) -> RenderReport:
@@ -501,6 +463,11 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
     s = settings or RenderSettings()
     if video is None and png_dir is None:
         raise RenderError("give an output: a video file and/or a PNG folder")
+    if video is not None:
+        try:
+            require_codec(s.codec)  # before any work: an unknown codec, or its extra missing (MissingExtra)
+        except VideoError as exc:
+            raise RenderError(str(exc)) from None
     params = s.spv_params()
     try:
         sim = PhospheneSimulator(config_from_node_params(params))  # as the spv node builds it
@@ -524,7 +491,7 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
         composer = (PanelComposer(config.height, sim.needs, max_depth, title, sim.map.K, (config.width, config.height))
                     if s.side_by_side else None)
         period_ns = 1e9 / display_rate
-        sink: _VideoSink | None = None
+        sink: VideoSink | None = None
         png = Path(png_dir) if png_dir is not None else None
         if png is not None:
             png.mkdir(parents=True, exist_ok=True)
@@ -542,7 +509,7 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
             size = (frame.shape[1], frame.shape[0])
             if video is not None:
                 if sink is None:
-                    sink = _VideoSink(Path(video), display_rate, size, color=frame.ndim == 3)
+                    sink = VideoSink(Path(video), display_rate, size, color=frame.ndim == 3, codec=s.codec)
                 sink.write(frame)
             if png is not None:
                 cv2.imwrite(str(png / f"frame_{written:06d}.png"), frame)
@@ -572,9 +539,14 @@ def render_bag(bag: str | Path, video: str | Path | None = None, png_dir: str | 
             while current is not None and tick(k) <= end_ns:
                 emit(tick(k))
                 k += 1
+        except VideoError as exc:
+            raise RenderError(str(exc)) from None
         finally:
             if sink is not None:
-                sink.close()
+                try:
+                    sink.close()
+                except VideoError as exc:
+                    raise RenderError(str(exc)) from None
         if written == 0:
             raise RenderError("no RGB-D frame could be rendered: " + ("; ".join(source.notes + reader.notes) or
                                                                        "no colour/depth frames in the time range"))

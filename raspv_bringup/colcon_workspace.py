@@ -50,7 +50,7 @@ PIP_NAMES = {"rosbags": "rosbags", "gtsam": "gtsam", "evo": "evo", "foxglove": "
 # Imported only when a user asks for them (camera SDKs, torch models, Ray sweeps, image metrics):
 # optional extras of pyproject.toml, not package dependencies.
 OPTIONAL = {"pyrealsense2", "openni", "depthai", "libusb_package", "torch", "ray", "skimage",
-            "pulse2percept", "dynaphos", "ai_edge_litert", "onnx", "playwright", "tqdm",
+            "pulse2percept", "dynaphos", "ai_edge_litert", "onnx", "playwright", "tqdm", "imageio_ffmpeg",
             "pytest"}   # pytest: the test harness (raspv_bringup.testing.dev_requirement), only under pytest
 ROS_PACKAGES = {"rclpy", "ament_index_python", "launch", "launch_ros"}
 # Extra files a package installs: (directory inside the repository, glob patterns). Installed

@@ -17,6 +17,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("bag", help="bag directory or .mcap/.db3 file")
     parser.add_argument("-o", "--output", metavar="VIDEO", help="mp4 file to write")
     parser.add_argument("--png-dir", metavar="DIR", help="also (or only) write every frame as a PNG here")
+    parser.add_argument("--codec", choices=("mp4v", "h264"), default="mp4v",
+                        help="the video's codec: mp4v (default; desktop players) or h264 (plays in browsers too; "
+                             "needs the 'video' extra)")
     spv = parser.add_argument_group("phosphenes (the spv node's parameters; defaults as the node's)")
     spv.add_argument("--params", metavar="FILE", help="take the spv parameters from a graph or parameter file "
                                                       "(its 'spv' section)")
@@ -116,6 +119,10 @@ def run(args: argparse.Namespace) -> int:
         return fail("give an output: -o out.mp4 and/or --png-dir DIR")
     if args.output and Path(args.output).suffix.lower() != ".mp4":
         return fail(f"{args.output}: the video must be an .mp4 file")
+    if args.output:
+        from raspv_bags.video_sink import require_codec
+
+        require_codec(args.codec)  # its extra missing: MissingExtra, one line from `raspv` naming the install
     given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
     if given and len(given) < 4:
         return fail("give all of --fx --fy --cx --cy")
@@ -132,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         return fail(str(exc))
     s = RenderSettings(spv=spv, scene=scene, side_by_side=args.side_by_side, start_s=args.start,
-                       duration_s=args.duration, intrinsics=intrinsics)
+                       duration_s=args.duration, intrinsics=intrinsics, codec=args.codec)
     for attr in ("color_topic", "depth_topic", "info_topic"):
         if getattr(args, attr):
             setattr(s, attr, getattr(args, attr))

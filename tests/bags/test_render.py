@@ -1,6 +1,8 @@
 """Offline rendering of bags: the live simulator's output, frame counts, video and PNGs, bad input."""
 from __future__ import annotations
 
+import sys
+
 import cv2
 import numpy as np
 import pytest
@@ -171,6 +173,28 @@ def test_bad_requests_are_refused(rgbd_bag, tmp_path):
         render_bag(rgbd_bag, tmp_path / "x.mp4", settings=RenderSettings(spv=SMALL, start_s=10.0))
     with pytest.raises(BagError, match="no such bag"):
         render_bag(tmp_path / "missing", tmp_path / "x.mp4")
+
+
+def test_h264_video_plays_back_with_every_frame_at_an_odd_size(rgbd_bag, tmp_path):
+    """--codec h264 (the video extra): an H.264 mp4, padded to even sides, one frame per tick."""
+    pytest.importorskip("imageio_ffmpeg", reason="the video extra (requirements/video.txt) is not installed")
+    report = render_bag(rgbd_bag, tmp_path / "h.mp4", settings=RenderSettings(spv={"width": 201}, codec="h264"))
+    cap = cv2.VideoCapture(str(tmp_path / "h.mp4"))
+    fourcc = int(cap.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode(errors="replace")
+    cap.release()
+    assert fourcc.lower() in ("avc1", "h264"), fourcc
+    frames = _video_frames(tmp_path / "h.mp4")
+    assert len(frames) == report.frames > 0
+    assert frames[0].shape[:2] == (report.size[1] + report.size[1] % 2, report.size[0] + report.size[0] % 2)
+    assert report.size[0] == 201
+
+
+def test_h264_without_the_video_extra_is_one_line_naming_its_install(rgbd_bag, tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)   # as if not installed
+    assert raspv(["render", str(rgbd_bag), "-o", str(tmp_path / "x.mp4"), "--codec", "h264"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "'video' extra" in err and "EXTRAS=video" in err, err
+    assert not (tmp_path / "x.mp4").exists()
 
 
 def test_command_line(tmp_path, capsys):
