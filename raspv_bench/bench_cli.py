@@ -22,6 +22,7 @@ BENCHES: dict[str, str] = {
     "seg": "raspv_bench.segmentation",
     "nav": "raspv_bench.nav",
     "restart": "raspv_bench.restart",
+    "spv-kills": "raspv_bench.spv_kills",
     "budget": "raspv_bench.budget",
     "soak": "raspv_bench.soak",
     "foxglove": "raspv_bench.foxglove",

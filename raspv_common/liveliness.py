@@ -30,6 +30,18 @@ it is a RASPV node that started — judging its first frames by the crash detect
 showed the no-data ring while a loaded machine started the graph. The first message of an input
 whose producers are not known yet triggers the lookup at once (not at the next :data:`REFRESH_S`).
 :mod:`raspv_spv.staleness` turns these into bounds.
+
+*The process, not the node name.* A node restarted by the launcher comes back under the same name
+— from a warm spare, registered ~0.2 s after the kill, long before its first message. Judged by
+name, the input's producer then counted as alive and the 1-s late bound applied instead of the
+dead bound (issue 36: a headset without frames for 1.02 s after ``kill -9`` of spv). So an
+input's state follows the processes that could have sent its last message — the live local
+processes among its producers when it arrived (:meth:`ProducerWatch.arrived`) —: while the
+replacement has sent nothing, the input's producer is the dead process. (A message that came
+when none of them lived is from a process not heard yet: judged by name until the next one.) (Producers on another
+machine are judged by name: DDS liveliness is per topic, not per process.) Endpoints whose node
+is not known yet (rmw's ``_NODE_NAME_UNKNOWN_``: a process whose node announcement has not
+arrived) are left out until it has.
 """
 from __future__ import annotations
 
@@ -57,6 +69,8 @@ DELIVERING, PAUSED, DOWN = "delivering", "paused", "down"
 # producer states per input (the same strings as raspv_spv.staleness: ALIVE, PAUSED, GONE, UNKNOWN)
 ALIVE, GONE, UNKNOWN = "alive", "gone", "unknown"
 PENDING = "pending"    # a producer's verdict only: its alive publisher is in the graph, its announcement not yet here
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"   # rmw's name of an endpoint whose node announcement has not arrived
+MAX_PROCESSES = 8      # processes remembered per node name (a restarted node's old ones, until they are gone)
 
 
 def alive_topic(node_fqn: str) -> str:
@@ -90,7 +104,7 @@ class AliveAnnouncement:
 class _Producer:
     """What a consumer knows of one producing node: its announcement and its DDS liveliness."""
 
-    __slots__ = ("alive", "ever_alive", "announces", "heard", "state", "pid", "started", "local", "sub")
+    __slots__ = ("alive", "ever_alive", "announces", "heard", "state", "pid", "started", "local", "sub", "processes")
 
     def __init__(self) -> None:
         self.alive = 0                 # DDS: alive writers on its alive topic
@@ -101,6 +115,7 @@ class _Producer:
         self.pid = self.started = 0
         self.local = False             # the same pid namespace: /proc tells whether it lives
         self.sub = None
+        self.processes: dict[tuple[int, int], str] = {}   # (pid, started) → announced state, of local processes
 
     def announced(self, data: str) -> None:
         try:
@@ -113,6 +128,24 @@ class _Producer:
         self.state = str(info.get("state", DELIVERING))
         self.pid, self.started = int(info.get("pid") or 0), int(info.get("started") or 0)
         self.local = bool(self.pid) and bool(proc.NAMESPACE) and info.get("ns") == proc.NAMESPACE
+        if self.local:
+            self.processes[(self.pid, self.started)] = self.state
+            if len(self.processes) > MAX_PROCESSES:      # forget processes that are gone (never the newest)
+                for key in [k for k in self.processes if k != (self.pid, self.started)
+                            and proc.process_state(*k) == proc.GONE][:len(self.processes) - MAX_PROCESSES]:
+                    del self.processes[key]
+
+    def process_verdict(self, key: tuple[int, int]) -> str:
+        """The verdict on one local process of this node (:attr:`processes`): gone when it died,
+        was forgotten, or announced ``down``."""
+        state = self.processes.get(key)
+        if state is None or proc.process_state(*key) != proc.RUNNING:
+            return GONE
+        return {PAUSED: PAUSED, DOWN: GONE}.get(state, ALIVE)
+
+    def live_processes(self) -> list[tuple[int, int]]:
+        """The local processes of this node that could publish now (not gone)."""
+        return [k for k in self.processes if self.process_verdict(k) != GONE]
 
     @property
     def verdict(self) -> str:
@@ -140,6 +173,8 @@ class ProducerWatch:
         self._publishers: dict[str, frozenset[str]] = {}       # topic → producing node names
         self._producers: dict[str, _Producer] = {}             # node name → what is known of it
         self._states: dict[str, str] = {}
+        self._sources: dict[str, frozenset[tuple[str, tuple[int, int]]]] = {}   # input → processes of its last message
+        self._live: dict[str, frozenset[tuple[str, tuple[int, int]]]] = {}      # topic → its live local processes
         self._states_at = -1.0
         self._refreshed_at = -1.0
         self._refresh_lock = threading.Lock()            # the timer and input callbacks may refresh at once
@@ -148,6 +183,7 @@ class ProducerWatch:
 
     def watch(self, inputs: dict[str, str]) -> None:
         """Watch the producers of these {input name: topic} (others are forgotten)."""
+        self._sources = {k: v for k, v in self._sources.items() if self._topics.get(k) == inputs.get(k)}
         self._topics = dict(inputs)
         self.refresh()
 
@@ -160,9 +196,16 @@ class ProducerWatch:
         return self._states
 
     def arrived(self, input_name: str) -> None:
-        """A message of ``input_name`` came: while its producers are not known, look them up now
-        (at most every :data:`EAGER_REFRESH_S`) rather than at the next periodic refresh."""
-        if self.states().get(input_name, UNKNOWN) == UNKNOWN and time.monotonic() - self._refreshed_at >= EAGER_REFRESH_S:
+        """A message of ``input_name`` came: it came from one of its producers' live processes
+        (their verdicts ≤ :data:`STATES_TTL_S` old), whose fate the input's state follows from now
+        on. While its producers are not known, look them up now (at most every
+        :data:`EAGER_REFRESH_S`) rather than at the next periodic refresh."""
+        state = self.states().get(input_name, UNKNOWN)
+        live = self._live.get(self._topics.get(input_name, ""), frozenset())
+        if self._sources.get(input_name) != live:     # none live: a process not heard yet sent it (by name)
+            self._sources[input_name] = live
+            self._states_at = -1.0
+        if state == UNKNOWN and time.monotonic() - self._refreshed_at >= EAGER_REFRESH_S:
             self.refresh()
             self._states_at = -1.0
 
@@ -177,7 +220,8 @@ class ProducerWatch:
                     if during_shutdown(exc, self.node.context):
                         return
                     raise
-                names = frozenset(_fqn(i.node_namespace, i.node_name) for i in infos) - {self._own}
+                names = frozenset(_fqn(i.node_namespace, i.node_name) for i in infos
+                                  if i.node_name != UNKNOWN_NODE) - {self._own}
                 self._publishers[topic] = names
                 for name in names:
                     p = self._producers.get(name)
@@ -205,11 +249,30 @@ class ProducerWatch:
 
     def _update(self) -> None:
         states = {}
+        self._live = {topic: live_processes(self._producers, self._publishers.get(topic, ()))
+                      for topic in set(self._topics.values())}
         for input_name, topic in list(self._topics.items()):
-            verdicts = {p.verdict for n in self._publishers.get(topic, ()) if (p := self._producers.get(n)) is not None}
-            states[input_name] = combined_state(verdicts)
+            states[input_name] = input_state(self._producers, self._publishers.get(topic, ()),
+                                             self._sources.get(input_name))
         if states != self._states:
             self._states = states
+
+
+def live_processes(producers: dict[str, _Producer], names) -> frozenset[tuple[str, tuple[int, int]]]:
+    """(node name, (pid, started)) of the live local processes of the nodes ``names``: those a
+    message arriving now can have come from."""
+    return frozenset((n, k) for n in names if (p := producers.get(n)) is not None for k in p.live_processes())
+
+
+def input_state(producers: dict[str, _Producer], names, sources=None) -> str:
+    """An input's state from its producing nodes ``names``; with ``sources`` (the live local
+    processes when its last message arrived, :func:`live_processes`) local producers are judged
+    by those processes, not by whichever process now holds the node name."""
+    known = [p for n in names if (p := producers.get(n)) is not None]
+    if not sources:
+        return combined_state({p.verdict for p in known})
+    verdicts = {producers[n].process_verdict(k) if n in producers else GONE for n, k in sources}
+    return combined_state(verdicts | {p.verdict for p in known if not p.local})
 
 
 def combined_state(verdicts: set[str]) -> str:

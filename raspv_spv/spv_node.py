@@ -474,13 +474,14 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
             previous = shown[2] if shown is not None else None
             self._shown = (sim, stale, plan, shown_sim, pattern)
         if previous is None or (plan.mode, plan.overlays) != (previous.mode, previous.overlays):
-            self._report_plan(plan, c.mode, now)
+            self._report_plan(plan, c.mode, now, producers)
         return plan, shown_sim, pattern
 
-    def _report_plan(self, plan: staleness.DisplayPlan, configured_mode: str, now: float) -> None:
+    def _report_plan(self, plan: staleness.DisplayPlan, configured_mode: str, now: float,
+                     producers: dict[str, str]) -> None:
         """Latched ``/spv/status`` (JSON) and a log line (at most one per 2 s) when what the display
-        shows changes because inputs went stale or came back."""
-        producers = self.producers.states()
+        shows changes because inputs went stale or came back; ``producers``: the states the stale
+        inputs were judged with (so the line and the episode counts agree)."""
         self._publish_status(plan, configured_mode, producers)
         if plan.normal:
             if self._stale_logged:

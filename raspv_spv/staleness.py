@@ -32,7 +32,8 @@ stale once the camera has been arriving longer than their bound (the scene node 
 depth fallback shows the camera meanwhile). Other inputs that never arrived are not stale (an
 overlay without input draws nothing). Waiting for a first message is not an *episode*;
 :attr:`StalenessMonitor.episodes` counts inputs that had arrived and went stale
-(:attr:`~StalenessMonitor.late_episodes` of them past the late bound of an alive producer).
+(:attr:`~StalenessMonitor.late_episodes` of them stale while their producer was alive — when it
+went stale or later in the episode, as the log line describing it says).
 
 What the wearer sees (:func:`plan_display`, documented in docs/spv.md "Stale inputs"):
 
@@ -94,7 +95,7 @@ def late_bound(period_s: float | None) -> float:
 
 class _InputClock:
     __slots__ = ("first_s", "last_s", "resumed_s", "intervals", "bound_s", "late_s", "follows", "required",
-                 "recovering")
+                 "recovering", "late_counted")
 
     def __init__(self) -> None:
         self.first_s: float | None = None
@@ -106,6 +107,7 @@ class _InputClock:
         self.follows: _InputClock | None = None     # never arrived: stale once this one flows longer than its bound
         self.required = False                       # never arrived: stale (the camera a mode needs)
         self.recovering = False                     # went stale while its producer lived: hysteresis
+        self.late_counted = False                   # this stale episode is counted as late (its producer alive)
 
     @property
     def period_s(self) -> float | None:
@@ -201,10 +203,13 @@ class StalenessMonitor:
                 if clock.last_s is None:
                     continue                     # waiting for a first message: not an episode
                 self.episodes += 1
-                if producers.get(name, UNKNOWN) == ALIVE:
-                    self.late_episodes += 1
-                    clock.recovering = True
+                clock.late_counted = False
             self._stale = new
+        for name in self._stale:                 # stale while its producer lives: a late episode, counted once
+            clock = self._clocks[name]
+            if not clock.late_counted and clock.last_s is not None and producers.get(name, UNKNOWN) == ALIVE:
+                clock.late_counted = clock.recovering = True
+                self.late_episodes += 1
         return self._stale
 
     def never_arrived(self, name: str) -> bool:

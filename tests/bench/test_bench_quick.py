@@ -24,7 +24,8 @@ OWN_TESTS = {"sim": "tests/sim/test_sim_bench_quick.py", "qoe": "tests/hmd/test_
              "spv": "tests/bench/test_bench_ratios.py", "scene": "tests/bench/test_bench_ratios.py",
              "nav": "tests/bench/test_bench_ratios.py", "budget": "tests/bench/test_bench_ratios.py",
              "slam": "tests/bench/test_bench_ratios.py",
-             "ratios": "tests/bench/test_bench_ratios.py"}
+             "ratios": "tests/bench/test_bench_ratios.py",
+             "spv-kills": "tests/hardening/test_spv_kills.py"}
 # what each bench prints when it measured something (a figure with its unit)
 FIGURE = re.compile(r"\d+(\.\d+)?\s*(ms|s|Hz|x|MB|%|fps|frames/s)\b")
 

@@ -61,3 +61,32 @@ def test_a_garbled_announcement_changes_nothing():
     p.announced("[1, 2")
     p.announced("[1, 2]")
     assert p.verdict == L.PENDING and not p.heard
+
+
+def test_a_replaced_process_is_dead_until_its_replacement_sends():
+    """Issue 36: spv killed, its warm spare registered under the same name ~0.24 s later and the
+    input counted as alive (the 1-s late bound: a headset without frames for 1.02 s). The verdict
+    follows the processes its last message can have come from, not the node name."""
+    old, new = (subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"]) for _ in range(2))
+    try:
+        producers = {"/spv": L._Producer()}
+        spv = producers["/spv"]
+
+        def announce(child):
+            spv.announced(announcement(pid=child.pid, started=proc._stat(child.pid)[1], ns=proc.NAMESPACE))
+
+        announce(old)
+        sources = L.live_processes(producers, ["/spv"])          # a frame arrives from the old process
+        assert L.input_state(producers, ["/spv"], sources) == L.ALIVE
+        old.kill()
+        old.wait()
+        announce(new)                                            # the spare takes over the name
+        assert L.input_state(producers, ["/spv"]) == L.ALIVE     # by name: alive (the bug)
+        assert L.input_state(producers, ["/spv"], sources) == L.GONE
+        sources = L.live_processes(producers, ["/spv"])          # the replacement's first frame
+        assert sources == {("/spv", (new.pid, proc._stat(new.pid)[1]))}
+        assert L.input_state(producers, ["/spv"], sources) == L.ALIVE
+    finally:
+        for child in (old, new):
+            child.kill()
+            child.wait()

@@ -7,7 +7,8 @@ from raspv_spv.config import spv_config
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern, ring_mask
 from raspv_spv.simulator import PhospheneSimulator
-from raspv_spv.staleness import (ALIVE, FALLBACK_MODE, GONE, LATE_S, NO_DATA, PAUSED, RECOVER_S, UNKNOWN_BOUND_S,
+from raspv_spv.staleness import (ALIVE, FALLBACK_MODE, GONE, LATE_S, NO_DATA, PAUSED, RECOVER_S, UNKNOWN,
+                                 UNKNOWN_BOUND_S,
                                  StalenessMonitor, expected_with, late_bound, plan_display, required_inputs,
                                  stale_bound, watched_inputs)
 
@@ -235,3 +236,18 @@ def test_a_fallback_variant_shares_the_simulators_state_and_runs_the_fallback_mo
     depth = np.full((120, 160), 2.0, np.float32)
     levels = fallback.levels(FrameInputs(depth=depth, camera=cam))
     assert levels.shape == (sim.count,) and levels.any()
+
+
+def test_an_episode_whose_producer_is_seen_alive_later_counts_as_late_once():
+    """Issue 36: the spv node logged a scene episode as "its node alive but late" and its summary
+    said "0 of them late from a live node": the episode began while the producer's state was not
+    known yet (gaps alone) and the producer was seen alive while the input was still stale."""
+    m = StalenessMonitor()
+    m.watch({"scene"})
+    last = feed(m, "scene", 0.0, 0.1, 10)
+    assert m.check(last + 0.3, {"scene": UNKNOWN}) == {"scene"}
+    assert (m.episodes, m.late_episodes) == (1, 0)
+    assert m.check(last + LATE_S + 0.1, {"scene": ALIVE}) == {"scene"}
+    assert "its node alive but late" in m.describe("scene", last + LATE_S + 0.1, ALIVE)
+    assert m.check(last + LATE_S + 0.2, {"scene": ALIVE}) == {"scene"}
+    assert (m.episodes, m.late_episodes) == (1, 1)
