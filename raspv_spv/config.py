@@ -16,6 +16,9 @@ from raspv_spv.implant_layout import LayoutSpec
 from raspv_spv.phosphene_map import MapSpec
 from raspv_spv.sprite_models import SpriteSpec
 from raspv_spv.temporal_lut import TemporalLUTConfig
+from raspv_spv.temporal_recursive import DEFAULT_RECOVERY_MS, RecursiveConfig
+
+TEMPORAL_UPDATES = ("recursive", "lut")
 
 # Device fields a user may override (the value 0 / "" means: keep the device's).
 DEVICE_OVERRIDES = ("num_phosphenes", "fov_deg", "grid", "field", "phosphene_fov_deg", "num_levels",
@@ -29,7 +32,10 @@ class SpvConfig:
     """Everything a :class:`~raspv_spv.simulator.PhospheneSimulator` is built from.
 
     ``device``: the resolved prosthesis (after overrides). ``width`` × ``height``: phosphene
-    image px. ``frame_rate``: display rate [Hz] = the temporal model's frame rate.
+    image px. ``frame_rate``: display rate [Hz] (the look-up table's frame rate).
+    ``temporal_update``: ``lut`` (the paper's 10-frame look-up table, one pulse per display frame)
+    or ``recursive`` (:mod:`raspv_spv.temporal_recursive`: pulses at ``pulse_rate`` Hz, brightness
+    at any display time; ``recovery_ms`` its charge recovery, ``inf`` pulse2percept's model).
     ``mode_settings``: values modes read (``max_depth`` m, ``edge_low``/``edge_high``, …).
     """
 
@@ -42,6 +48,9 @@ class SpvConfig:
     temporal: bool = True
     temporal_model: str = "horsager2009"
     temporal_sample: str = "mean"
+    temporal_update: str = "lut"
+    pulse_rate: float = 50.0
+    recovery_ms: float = DEFAULT_RECOVERY_MS
     frame_rate: float = 50.0
     output_format: str = "mono8"
     mode_settings: Mapping[str, Any] = field(default_factory=dict)
@@ -54,10 +63,22 @@ class SpvConfig:
                        d.phosphene_fov_deg, d.dropout, d.noise_px, self.seed, layout)
 
     def sprite_spec(self) -> SpriteSpec:
-        """The sprite model and its parameters; pulses at the display rate (one per frame)."""
+        """The sprite model and its parameters; pulses at the display rate (one per frame), or at
+        the recursive temporal model's pulse rate."""
         d = self.device
+        rate = self.pulse_rate if self.temporal and self.temporal_update == "recursive" else self.frame_rate
         return SpriteSpec(d.sprite_model, d.rho_um, d.axlambda_um, d.eye, d.num_levels, d.max_amplitude_xth,
-                          d.pulse_phase_ms, self.frame_rate, d.pulse_amplitude_ua)
+                          d.pulse_phase_ms, rate, d.pulse_amplitude_ua)
+
+    def __post_init__(self) -> None:
+        if self.temporal_update not in TEMPORAL_UPDATES:
+            raise ValueError(f"temporal_update must be one of {', '.join(TEMPORAL_UPDATES)}, got {self.temporal_update!r}")
+
+    def recursive_config(self) -> RecursiveConfig:
+        d = self.device
+        return RecursiveConfig(model=self.temporal_model, pulse_rate_hz=self.pulse_rate,
+                               pulse_amplitude_ua=d.pulse_amplitude_ua, pulse_phase_ms=d.pulse_phase_ms,
+                               recovery_ms=self.recovery_ms)
 
     def lut_config(self) -> TemporalLUTConfig:
         d = self.device
@@ -68,7 +89,8 @@ class SpvConfig:
 
 def spv_config(device: str | Device = "default", *, width: int = 800, height: int = 0, seed: int = 0,
                mode: str = "grey", overlays: tuple[str, ...] | list[str] = (), temporal: bool = True,
-               temporal_model: str = "horsager2009", temporal_sample: str = "mean", frame_rate: float = 50.0,
+               temporal_model: str = "horsager2009", temporal_sample: str = "mean", temporal_update: str = "lut",
+               pulse_rate: float = 50.0, recovery_ms: float = DEFAULT_RECOVERY_MS, frame_rate: float = 50.0,
                output_format: str = "mono8", mode_settings: Mapping[str, Any] | None = None,
                dropout: float | None = None, noise_px: float | None = None, **device_overrides: Any) -> SpvConfig:
     """A :class:`SpvConfig` from a device preset (name, YAML path or :class:`Device`) and
@@ -87,7 +109,8 @@ def spv_config(device: str | Device = "default", *, width: int = 800, height: in
     if height == 0:
         height = max(16, int(round(width * dev.aspect)))
     return SpvConfig(dev, int(width), int(height), int(seed), mode, tuple(overlays), bool(temporal), temporal_model,
-                     temporal_sample, float(frame_rate), output_format, dict(mode_settings or {}))
+                     temporal_sample, temporal_update, float(pulse_rate), float(recovery_ms), float(frame_rate),
+                     output_format, dict(mode_settings or {}))
 
 
 
@@ -98,6 +121,7 @@ def config_from_node_params(p: Mapping[str, Any]) -> SpvConfig:
     return spv_config(
         p["device"], width=p["width"], height=p["height"], seed=p["seed"], mode=p["mode"], overlays=p["overlays"],
         temporal=p["temporal"], temporal_model=p["temporal_model"], temporal_sample=p["temporal_sample"],
-        frame_rate=p["rate"], output_format=p["output_format"], mode_settings=dict(p),
+        temporal_update=p["temporal_update"], pulse_rate=p["pulse_rate"],
+        recovery_ms=p["charge_recovery_ms"] if p["charge_recovery_ms"] > 0 else float("inf"), frame_rate=p["rate"], output_format=p["output_format"], mode_settings=dict(p),
         dropout=None if p["dropout"] < 0 else p["dropout"], noise_px=None if p["noise_px"] < 0 else p["noise_px"],
         **{k: p[k] for k in DEVICE_OVERRIDES})

@@ -1,8 +1,8 @@
 """When the spv node's next display frame is due (no ROS).
 
 A display frame is due every ``period`` s on absolute deadlines. When the display *follows its
-input* (``display_on_input``; only with the temporal model off, whose frame rate is the display
-rate), new content — a head turn, a new camera frame — makes a frame due at once instead of at
+input* (``display_on_input``; with the temporal model off or recursive — not with the look-up
+table, which steps in whole display frames), new content — a head turn, a new camera frame — makes a frame due at once instead of at
 the next deadline, but never sooner than ``min_gap`` after the previous frame, so the stream
 stays at most 1/min_gap frames per second. The regular deadlines then restart from that frame.
 Without input the display ticks at the period, as before.

@@ -5,8 +5,10 @@ there is no second implementation. A frame goes through:
 
 1. the representation mode (and overlays) → integer level per phosphene, sampled through
    P_i^C = K_C·K_P⁻¹·P_i for the frame's camera model (:mod:`raspv_spv.sampling`);
-2. the temporal model (optional): a level > 0 delivers a pulse this frame; the 10-frame pulse
-   history picks a gain g ∈ [0, 1] from the look-up table (:mod:`raspv_spv.temporal_lut`);
+2. the temporal model (optional): with the look-up table a level > 0 delivers a pulse this frame
+   and the 10-frame pulse history picks a gain g ∈ [0, 1] (:mod:`raspv_spv.temporal_lut`); the
+   recursive model pulses at its own rate and gives g at any display time
+   (:mod:`raspv_spv.temporal_recursive`);
    brightness = g · a, with a = level/(N_L−1) of the phosphene's latest pulse (the level sets
    how bright it can get, the pulse history how much of it is perceived now, and a phosphene
    switched off fades from the level it had); without it brightness = level/(N_L−1);
@@ -46,6 +48,7 @@ from raspv_spv.sampling import Sampling
 from raspv_spv.sprite_models import build_sprite_bank
 from raspv_spv.sprites import Sprite
 from raspv_spv.temporal_lut import TemporalState, load_table
+from raspv_spv.temporal_recursive import RecursiveTemporalState, recursive_model
 
 
 class InputError(ValueError):
@@ -84,7 +87,12 @@ class PhospheneSimulator:
         self.num_levels = config.device.num_levels
         self._visible = (~self.map.dropped).astype(np.float32)
         self._level_scale = np.float32(1.0 / (self.num_levels - 1))
-        self.temporal = TemporalState(load_table(config.lut_config()), self.map.count) if config.temporal else None
+        self.temporal: TemporalState | RecursiveTemporalState | None = None
+        if config.temporal and config.temporal_update == "recursive":
+            self.temporal = RecursiveTemporalState(recursive_model(config.recursive_config()), self.map.count,
+                                                   frame_ms=1000.0 / config.frame_rate)
+        elif config.temporal:
+            self.temporal = TemporalState(load_table(config.lut_config()), self.map.count)
         self._samplings: dict[CameraIntrinsics, Sampling] = {}
         self._pulse_levels = np.zeros(self.map.count, np.uint8)   # level of each phosphene's latest pulse
 
@@ -113,8 +121,11 @@ class PhospheneSimulator:
     def adopt_state(self, previous: "PhospheneSimulator") -> None:
         """Continue ``previous``'s pulse histories (after a rebuild with the same phosphenes),
         so a run-time change of, say, the mode does not restart the temporal model."""
-        if self.temporal is not None and previous.temporal is not None and previous.count == self.count:
-            self.temporal.adopt(previous.temporal)
+        mine, theirs = self.temporal, previous.temporal
+        if mine is None or theirs is None or previous.count != self.count or type(mine) is not type(theirs):
+            return
+        if isinstance(mine, TemporalState) or mine.model is theirs.model:
+            mine.adopt(theirs)
 
     def variant(self, mode: str, overlays: tuple[str, ...]) -> "PhospheneSimulator":
         """This simulator with another mode and overlays, sharing its map, sprites, samplings
@@ -159,11 +170,15 @@ class PhospheneSimulator:
             levels = overlay.apply(levels, inputs, sampling, self.num_levels)
         return levels
 
-    def brightness(self, levels: np.ndarray, frames: int = 1) -> np.ndarray:
+    def brightness(self, levels: np.ndarray, frames: int = 1, at_s: float | None = None) -> np.ndarray:
         """Displayed brightness (N,) float32 in [0, 1] for ``levels`` held over the last
-        ``frames`` display frames (advances the temporal model when it is on)."""
+        ``frames`` display frames (advances the temporal model when it is on). The recursive
+        model takes the display time ``at_s`` [s, any increasing clock] when given: the
+        brightness at that moment, ``levels`` requested from then on; else ``frames`` frames."""
         b = np.asarray(levels, dtype=np.float32) * self._level_scale
-        if self.temporal is not None:
+        if isinstance(self.temporal, RecursiveTemporalState) and at_s is not None:
+            b = self.temporal.advance(1000.0 * at_s, b)
+        elif self.temporal is not None:
             b = self.temporal.step(b, frames)
             if self.renderer.levels > 1:
                 self._pulse_levels = np.rint(self.temporal.amplitude * (self.num_levels - 1)).astype(np.uint8)

@@ -68,7 +68,7 @@ class SpvDisplay:
                         scene_stamp = shown_frame.inputs.scene_stamp
             if gaze.blank:
                 levels = np.zeros_like(levels)
-            brightness = sim.brightness(levels, frames)
+            brightness = sim.brightness(levels, frames, at_s=t0 if stamp is None else stamp)
         if stamp is not None:
             source_stamp = stamp                    # headless: the frame answers this input
         msg = None
@@ -108,10 +108,12 @@ class SpvDisplay:
             self.tick()
 
     def _follows_input(self) -> bool:
-        """New content is shown at once: ``display_on_input`` with the temporal model off (its
-        frame rate is the display rate) and no simulated device latency (frames wait for it)."""
+        """New content is shown at once: ``display_on_input`` with the temporal model off or
+        recursive (advanced by the real time of each frame; the look-up table steps in whole
+        display frames) and no simulated device latency (frames wait for it)."""
         p = self.params
-        return bool(p["display_on_input"]) and not p["temporal"] and p["device_latency_ms"] == 0
+        model_keeps_clock = p["temporal"] and p["temporal_update"] == "lut"
+        return bool(p["display_on_input"]) and not model_keeps_clock and p["device_latency_ms"] == 0
 
     def report(self) -> None:
         """Every 10 s: warn about dropped display frames."""

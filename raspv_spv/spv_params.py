@@ -29,10 +29,18 @@ PARAMS = [
     Param("mode", "grey", "representation mode", choices=tuple(MODES)),
     Param("overlays", [], "overlays drawn over the mode, in order", choices=tuple(OVERLAYS) or None),
     Param("temporal", True, "temporal model (discretised Horsager 2009 / Nanduri 2012) on or off"),
-    Param("temporal_model", "horsager2009", "continuous model the look-up table is built from",
+    Param("temporal_model", "horsager2009", "continuous model of the temporal model",
           choices=("horsager2009", "nanduri2012")),
-    Param("temporal_sample", "mean", "a frame shows the model's mean over the frame or its value at the frame's end",
-          choices=("mean", "end")),
+    Param("temporal_update", "recursive", "recursive: the model advanced exactly by the real time between display "
+          "frames, pulses at pulse_rate, so the display can follow its input at any rate; lut: the paper's 10-frame "
+          "look-up table, one pulse per display frame (frames keep the rate's clock)", choices=("recursive", "lut")),
+    Param("pulse_rate", 50.0, "stimulation rate of the recursive temporal model, whatever the display rate",
+          minimum=1.0, maximum=100.0, unit="Hz"),
+    Param("charge_recovery_ms", 200.0, "recursive temporal model: time constant of charge-accumulation recovery "
+          "(200: the same steady-state charge as the look-up table's 10-frame window; 0: never, pulse2percept's "
+          "model, a phosphene held on fades within ~15 s)", minimum=0.0, maximum=1e6, unit="ms"),
+    Param("temporal_sample", "mean", "look-up table: a frame shows the model's mean over the frame or its value at "
+          "the frame's end (the recursive model shows its value at the display time)", choices=("mean", "end")),
     Param("pulse_amplitude_ua", 0.0, "biphasic pulse amplitude of an 'on' frame (0: the device's)", minimum=0.0,
           maximum=2000.0, unit="uA"),
     Param("pulse_phase_ms", 0.0, "duration of each pulse phase (0: the device's)", minimum=0.0, maximum=5.0, unit="ms"),
@@ -46,15 +54,17 @@ PARAMS = [
           unit="um"),
     Param("headless", False, "no display loop: publish each computed frame at once, stamped with its input, the "
           "temporal model advancing by the input's elapsed time (scripted subjects, sweeps in sim time)", dynamic=False),
-    Param("rate", 50.0, "display rate, also the temporal model's frame rate", minimum=1.0, maximum=240.0, unit="Hz"),
+    Param("rate", 50.0, "display rate (headsets: 72, 90 or 120; the look-up table's frame rate; /spv/status says what "
+          "the rate costs and a rate this machine cannot keep is refused)", minimum=1.0, maximum=240.0, unit="Hz"),
     Param("reprojection", True, "re-sample the last camera frame for the newest head orientation at every display tick "
           "(only when the viewer's head turns the camera: camera_source sim or head)"),
     Param("camera_source", "unknown", "where the images come from, set by the launcher from the graph's source node: "
           "sim (the avatar's head camera), head/chest/hand/robot/custom (a live camera's mounting), recording (a bag "
           "or a camera node playing a file); only sim and head are turned by the viewer's head",
           choices=tuple(CAMERA_SOURCES)),
-    Param("display_on_input", True, "with the temporal model off, show a head turn or a new camera frame at once "
-          "instead of at the next display tick (at most 4 x rate frames/s); with it on, frames keep the model's rate"),
+    Param("display_on_input", True, "show a head turn or a new camera frame at once instead of at the next display "
+          "tick (at most 4 x rate frames/s), with the temporal model off or recursive; with the look-up table frames "
+          "keep its rate"),
     Param("predict_pose", True, "a frame whose camera pose comes later (RGB-D odometry) is shown at once with the pose "
           "predicted at its stamp, then recomputed with its own; off: it waits for its pose (headless always waits)"),
     Param("carry_scene", True, "scene modes show each new depth frame at once with the newest scene-perception "
