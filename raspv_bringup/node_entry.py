@@ -17,6 +17,7 @@ import os
 import signal
 import sys
 
+from raspv_common.extras import MissingExtra
 from raspv_common.startup_timing import SPAWN_TIME_ENV, startup_mark
 
 INTERRUPTED = 130
@@ -44,6 +45,9 @@ def main(argv: list[str] | None = None) -> None:
             _wait_for_promotion()
     except KeyboardInterrupt:
         _exit_quietly()
+    except MissingExtra as exc:           # the node needs an extra: one line naming its install
+        print(f"{module_name}: {exc}", file=sys.stderr)
+        sys.exit(1)
     try:
         module.main([module_name, *rest])
     except KeyboardInterrupt:             # between the import and run_node's own handling

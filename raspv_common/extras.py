@@ -6,6 +6,7 @@ users need is an extra of ``pyproject.toml`` (its exact pins in ``requirements/<
 - ``learn``: torch (CPU build), onnx, tqdm — ``raspv learn``, the differentiable twin;
 - ``cameras``: the RealSense, OpenNI2 and DepthAI SDKs — the ``camera`` node;
 - ``cluster``: Ray — ``raspv experiment sweep --ray``;
+- ``foxglove``: foxglove-sdk — the ``foxglove`` node (the graph live in the Foxglove app);
 - ``video``: imageio-ffmpeg's FFmpeg — ``raspv render --codec h264`` (browser-playable mp4; the
   default mp4v needs no extra);
 - ``dev``: all of the above, the test runner, the peers the benchmarks compare against
@@ -33,8 +34,9 @@ EXTRAS: dict[str, str] = {
     "learn": "learned encoders (raspv learn): torch CPU build, onnx, tqdm",
     "cameras": "real RGB-D cameras: RealSense, OpenNI2, DepthAI SDKs",
     "cluster": "sweeps on a Ray cluster",
+    "foxglove": "the foxglove node (the graph live in the Foxglove app): foxglove-sdk",
     "video": "H.264 videos (raspv render --codec h264): imageio-ffmpeg",
-    "dev": "tests, benchmarks' peers, browser driver, colcon, MkDocs (includes learn, cameras, cluster, video)",
+    "dev": "tests, benchmarks' peers, browser driver, colcon, MkDocs (includes learn, cameras, cluster, foxglove, video)",
 }
 
 # importable module -> (extra, distribution) for every optional package
@@ -47,6 +49,7 @@ OPTIONAL_MODULES: dict[str, tuple[str, str]] = {
     "depthai": ("cameras", "depthai"),
     "ray": ("cluster", "ray"),
     "imageio_ffmpeg": ("video", "imageio-ffmpeg"),
+    "foxglove": ("foxglove", "foxglove-sdk"),
     "playwright": ("dev", "playwright"),
     "pulse2percept": ("dev", "pulse2percept"),
     "dynaphos": ("dev", "dynaphos"),

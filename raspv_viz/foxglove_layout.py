@@ -15,9 +15,10 @@ from __future__ import annotations
 import json
 import sys
 
-import foxglove.layouts as fl
-
 from raspv_common import frames, shipped, topics
+from raspv_common.extras import require
+
+fl = require("foxglove.layouts", "the Foxglove layout (foxglove-sdk's layout types)")
 
 LAYOUT_FILE = shipped.CONFIG_DIR / "foxglove_layout.json"
 LATENCY = "/raspv/latency"

@@ -19,10 +19,12 @@ import threading
 from dataclasses import dataclass
 from typing import Any, Callable
 
-import foxglove
-from foxglove import Capability, Parameter, ParameterType, Schema
-
 from raspv_bags.message_types import ensure_type, normalise_type, typestore
+from raspv_common.extras import require
+
+# the `foxglove` extra; without it, importing this module raises MissingExtra (one line: its install)
+foxglove = require("foxglove", "the foxglove node (the graph live in the Foxglove app)")
+from foxglove import Capability, Parameter, ParameterType, Schema  # noqa: E402
 from raspv_viz.foxglove_gate import TokenGate, is_loopback
 
 SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")

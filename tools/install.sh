@@ -3,7 +3,7 @@
 # the Python dependencies, raspv_msgs and tf2_msgs built with cmake into the venv, and the project itself
 # (editable). Re-running it when nothing changed only compares two stamps.
 #
-#   tools/install.sh [EXTRA ...]     EXTRA: learn cameras cluster video dev (dev = all of them + test tools)
+#   tools/install.sh [EXTRA ...]     EXTRA: learn cameras cluster video foxglove dev (dev = all of them + test tools)
 #
 # Without an extra: what the demo, graphs, recordings and experiments need. Extras installed
 # once stay installed (the stamp lists them); `make test` installs dev.
@@ -19,7 +19,7 @@ say() { echo "raspv install: $*"; }
 die() { echo "raspv install: $*" >&2; exit 1; }
 
 # --- which extras ---------------------------------------------------------------------------
-KNOWN_EXTRAS="learn cameras cluster video dev"
+KNOWN_EXTRAS="learn cameras cluster video foxglove dev"
 REQUESTED=""
 for extra in "$@" ${EXTRAS:-}; do
   extra=${extra//,/ }
@@ -30,12 +30,12 @@ for extra in "$@" ${EXTRAS:-}; do
   done
 done
 # dev is everything the tests use: the other extras too
-case " $REQUESTED " in *" dev "*) REQUESTED="$REQUESTED learn cameras cluster video";; esac
+case " $REQUESTED " in *" dev "*) REQUESTED="$REQUESTED learn cameras cluster video foxglove";; esac
 # the extras already in the venv (the stamp's second line; a stamp without one is from the
 # install that put everything in)
 HAD=""
 if [ -f "$STAMP" ]; then
-  { read -r _ || true; read -r HAD || HAD="learn cameras cluster video dev"; } < "$STAMP"
+  { read -r _ || true; read -r HAD || HAD="learn cameras cluster video foxglove dev"; } < "$STAMP"
 fi
 # (plain bash: the prerequisite checks below must be reached with nothing but bash on the PATH)
 WANT=""
@@ -131,6 +131,7 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$STAMPED" ]; then
   esac
   case " $WANT " in *" cameras "*) "$VPY" -c 'import pyrealsense2, depthai, openni' || die "the cameras extra does not import (error above)";; esac
   case " $WANT " in *" cluster "*) "$VPY" -c 'import ray' || die "the cluster extra does not import (error above)";; esac
+  case " $WANT " in *" foxglove "*) "$VPY" -c 'import foxglove' || die "the foxglove extra does not import (error above)";; esac
   case " $WANT " in *" video "*) "$VPY" -c 'import imageio_ffmpeg; imageio_ffmpeg.get_ffmpeg_exe()' || die "the video extra does not import (error above)";; esac
   # the peers and tools the tests need (requirements/dev.txt): on an environment this script set
   # up with dev, their tests run instead of skipping (raspv_bringup.testing.dev_requirement)

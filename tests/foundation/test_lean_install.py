@@ -24,12 +24,12 @@ from packaging.utils import canonicalize_name
 ROOT = Path(__file__).resolve().parents[2]
 REQ = ROOT / "requirements"
 DEFAULT_FILES = ("ros.txt", "python.txt", "no-deps.txt")
-EXTRA_FILES = ("learn.txt", "cameras.txt", "cluster.txt", "video.txt", "dev.txt")
+EXTRA_FILES = ("learn.txt", "cameras.txt", "cluster.txt", "video.txt", "foxglove.txt", "dev.txt")
 # declared by open3d, dash, evo or gtsam, never imported by what the project uses of them; and the
-# extras' heavy packages (issue 34: no torch, Ray, DepthAI, Playwright or ffmpeg by default)
+# extras' packages (issue 34: no torch, Ray, DepthAI, Playwright or ffmpeg by default; Foxglove's server)
 MUST_STAY_OUT = {"flask", "nbformat", "ipywidgets", "ipython", "jedi", "configargparse", "pandas", "seaborn",
                  "numexpr", "natsort", "requests", "pytest", "torch", "ray", "depthai", "playwright",
-                 "imageio-ffmpeg", "pyrealsense2"}
+                 "imageio-ffmpeg", "pyrealsense2", "foxglove-sdk"}
 # the project and the messages tools/install.sh builds into the venv with cmake
 BUILT = {"raspv", "raspv-msgs", "tf2-msgs"}
 

@@ -8,6 +8,8 @@ import re
 
 import numpy as np
 import pytest
+
+pytest.importorskip("foxglove", reason="the foxglove extra (requirements/foxglove.txt) is not installed")
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import Image, PointCloud2
@@ -237,3 +239,17 @@ def test_stop_is_bounded_with_a_client_that_stopped_reading():
             client.close()
         except Exception:   # the server went away under it
             pass
+
+
+def test_without_the_extra_the_node_says_so_in_one_line():
+    """A graph with a foxglove node on an install without the extra: the node exits with one line
+    naming the command that installs it, not a traceback."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['foxglove'] = None  # as if foxglove-sdk were not installed\n"
+            "from raspv_bringup.node_entry import main; main(['raspv_viz.foxglove_node'])")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 1 and len(lines) == 1, res.stderr
+    assert "'foxglove' extra" in lines[0] and "EXTRAS=foxglove" in lines[0], lines[0]

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import yaml
 
-from raspv_common import topics
-from raspv_viz.foxglove_layout import LATENCY, LAYOUT_FILE, SYSINFO, layout_json
+from raspv_common import shipped, topics
 
 VIZ_TOPICS = {topics.VIZ_SCENE, topics.VIZ_STAIRS, topics.VIZ_PATH, topics.VIZ_PHOSPHENES, topics.VIZ_CLOUD}
 GRAPH_TOPICS = {v for k, v in vars(topics).items() if k.isupper() and isinstance(v, str)}
@@ -24,6 +24,9 @@ def _walk(node):
 
 
 def test_foxglove_layout_is_up_to_date_and_names_real_topics():
+    pytest.importorskip("foxglove", reason="the foxglove extra (requirements/foxglove.txt) is not installed")
+    from raspv_viz.foxglove_layout import LATENCY, LAYOUT_FILE, SYSINFO, layout_json
+
     assert LAYOUT_FILE.read_text() == layout_json(), "run: python -m raspv_viz.foxglove_layout"
     layout = json.loads(LAYOUT_FILE.read_text())
     panels = [n for n in _walk(layout) if n.get("type") == "panel"]
@@ -40,7 +43,7 @@ def test_foxglove_layout_is_up_to_date_and_names_real_topics():
 
 
 def test_rviz_config_shows_every_viz_topic_and_the_tf_tree_in_the_map_frame():
-    doc = yaml.safe_load((LAYOUT_FILE.parent / "raspv.rviz").read_text())
+    doc = yaml.safe_load((shipped.CONFIG_DIR / "raspv.rviz").read_text())
     manager = doc["Visualization Manager"]
     assert manager["Global Options"]["Fixed Frame"] == "map"
     assert "rviz_default_plugins/TF" in {d["Class"] for d in manager["Displays"]}
