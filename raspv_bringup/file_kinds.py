@@ -180,6 +180,9 @@ FILE_KINDS: dict[str, FileKind] = {
                                  "RGB-D camera SDK recording", with_params=True),
     "slam_map": FileKind("slam_map", "raspv_slam.map_store:check_map",
                          "saved SLAM map: a name in the maps directory ($RASPV_MAPS_DIR) or a map folder"),
+    "aligned_slam_map": FileKind("aligned_slam_map", "raspv_common.slam_map_files:check_aligned_map",
+                                 "saved SLAM map placed on a building map by raspv slam align "
+                                 "(its building_alignment.yaml is read)"),
 }
 
 

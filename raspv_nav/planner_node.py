@@ -131,8 +131,7 @@ class PlannerNode(RaspvNode):
         if any(manual):
             self.get_logger().info(f"map_from_odom {list(manual)} overrides the alignment stored with {p['slam_map']}")
             return manual
-        from raspv_slam.building_map import building_map_sha256, load_alignment
-        from raspv_slam.map_store import SlamMapError
+        from raspv_common.slam_map_files import SlamMapError, building_map_sha256, load_alignment
 
         try:
             stored = load_alignment(p["slam_map"])
@@ -141,10 +140,9 @@ class PlannerNode(RaspvNode):
         if p["map"] and stored.building_sha256 and building_map_sha256(p["map"]) != stored.building_sha256:
             self.get_logger().warning(f"{p['slam_map']} was aligned to {stored.building_map}, not to {p['map']} "
                                       "(the files differ): align it again with raspv slam align")
-        a = stored.alignment
         self.get_logger().info(f"map frame placed on the building map by {p['slam_map']}'s alignment "
-                               f"(score {a.score:.2f}, {a.matched:.0%} of its walls on the building's)")
-        return a.x, a.y, a.yaw_deg
+                               f"(score {stored.score:.2f}, {stored.matched:.0%} of its walls on the building's)")
+        return stored.x, stored.y, stored.yaw_deg
 
     def _goal_position(self, p: dict):
         """Goal (x, y) in the map frame from goal_name or goal; a string explains what is wrong."""

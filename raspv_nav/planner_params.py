@@ -7,7 +7,7 @@ PARAMS = [
     Param("world", "", "simulator world (name or file): its structural map (walls, doors, stairs) is the building map",
           dynamic=False, file_kind="world"),
     Param("slam_map", "", "a saved SLAM map aligned to this building (raspv slam align): its stored alignment "
-          "places the pose source's map frame on the building map", dynamic=False, file_kind="slam_map"),
+          "places the pose source's map frame on the building map", dynamic=False, file_kind="aligned_slam_map"),
     Param("map_from_odom", [0.0, 0.0, 0.0], "where the pose source's world/odometry frame sits on the map: "
           "x, y [m] and yaw [deg] of its origin and x axis (e.g. the recording's start on the building map); "
           "when not [0, 0, 0] it overrides slam_map's alignment",

@@ -10,40 +10,18 @@ planner can tell when it is given another building. A map saved again keeps the 
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
 
 from raspv_common.occupancy import MapFormatError, load_map as load_occupancy
-from raspv_common.text_files import read_yaml_file
+from raspv_common.slam_map_files import ALIGNMENT_FILE, SlamMapError, StoredAlignment, building_map_sha256, \
+    load_alignment, resolve_map_path  # noqa: F401 (load_alignment, StoredAlignment re-exported)
 from raspv_slam.building_alignment import AlignmentConfig, AlignmentError, AlignmentGuess, BuildingAlignment, \
     align_to_building
-from raspv_slam.map_store import SlamMapError, resolve_map_path
 
-ALIGNMENT_FILE = "building_alignment.yaml"
 OCCUPANCY_FILE = "occupancy.yaml"
-
-
-@dataclass(frozen=True)
-class StoredAlignment:
-    alignment: BuildingAlignment
-    building_map: Path              # the map_server YAML it was made for
-    building_sha256: str            # of that YAML and its image, when it was made
-
-
-def building_map_sha256(yaml_path: str | Path) -> str:
-    """SHA-256 of a map_server YAML and the image it names (together)."""
-    path = Path(yaml_path)
-    meta = read_yaml_file(path, "map file", MapFormatError, str(path))
-    image = Path(str(meta.get("image", ""))) if isinstance(meta, dict) else Path()
-    image = image if image.is_absolute() else path.parent / image
-    digest = hashlib.sha256(path.read_bytes())
-    if image.is_file():
-        digest.update(image.read_bytes())
-    return digest.hexdigest()
 
 
 def map_occupancy(map_name_or_path: str | Path):
@@ -87,22 +65,3 @@ def store_alignment(map_name_or_path: str | Path, alignment: BuildingAlignment, 
                    + yaml.safe_dump(data, sort_keys=False))
     os.replace(tmp, path)
     return path
-
-
-def load_alignment(map_name_or_path: str | Path) -> StoredAlignment:
-    """The building alignment stored with a SLAM map (``SlamMapError`` when there is none)."""
-    path = resolve_map_path(map_name_or_path)
-    file = path / ALIGNMENT_FILE
-    if not (path / "map.yaml").is_file():
-        raise SlamMapError(f"{map_name_or_path}: no such SLAM map (looked in {path})")
-    if not file.is_file():
-        raise SlamMapError(f"{map_name_or_path}: the map is not aligned to a building map yet "
-                           "(run: raspv slam align MAP --building BUILDING.yaml)")
-    data = read_yaml_file(file, "building alignment", SlamMapError, str(file))
-    if not isinstance(data, dict) or not isinstance(data.get("building_from_map"), dict):
-        raise SlamMapError(f"{file}: expected building_from_map with x, y, yaw_deg")
-    try:
-        alignment = BuildingAlignment.from_dict(data["building_from_map"])
-    except AlignmentError as exc:
-        raise SlamMapError(f"{file}: {exc}") from None
-    return StoredAlignment(alignment, Path(str(data.get("building_map", ""))), str(data.get("building_map_sha256", "")))

@@ -27,6 +27,7 @@ import yaml
 
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.occupancy import save_map as save_occupancy
+from raspv_common.slam_map_files import ALIGNMENT_FILE, MAPS_DIR_ENV, SlamMapError, maps_dir, resolve_map_path  # noqa: F401 (re-exported)
 from raspv_slam.config import SlamConfig
 from raspv_slam.features import Features
 from raspv_slam.keyframe import Keyframe
@@ -36,25 +37,7 @@ from raspv_slam.slam_map import Edge, SlamMap
 
 FORMAT = "raspv-slam-map"
 VERSION = 1
-MAPS_DIR_ENV = "RASPV_MAPS_DIR"
-KEPT_ON_SAVE = ("building_alignment.yaml",)   # files other tools add to a map folder, kept when it is saved again
-
-
-class SlamMapError(ValueError):
-    """A map that cannot be found, read or used (one line naming the map and the reason)."""
-
-
-def maps_dir() -> Path:
-    return Path(os.environ.get(MAPS_DIR_ENV) or Path.home() / ".local" / "share" / "raspv" / "maps").expanduser()
-
-
-def resolve_map_path(name_or_path: str | Path) -> Path:
-    """A path as given (it has a slash, or exists), else ``maps_dir() / name``."""
-    text = str(name_or_path)
-    p = Path(text).expanduser()
-    if "/" in text or p.exists():
-        return p
-    return maps_dir() / text
+KEPT_ON_SAVE = (ALIGNMENT_FILE,)   # files other tools add to a map folder, kept when it is saved again
 
 
 def _offsets(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -130,3 +130,29 @@ def test_path_overlay_highlights_the_path_in_the_phosphenes(graph, probe, tmp_pa
     lit = levels == 7
     assert 5 < lit.sum() < 0.3 * len(levels)        # a band of phosphenes, not the whole field
     assert levels[~lit].max() <= 4                   # the rest dimmed ×0.5 (depth levels ≤ 7 → ≤ 4)
+
+
+def test_a_slam_maps_stored_alignment_places_the_pose_frame_on_the_building_map(graph, probe, tmp_path):
+    """slam_map: the planner reads B ← M from the map folder (as `raspv slam align` writes it) and
+    publishes the building's costmap in the pose source's frame: its origin is M ← B applied to
+    the building's origin."""
+    room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
+    grid = room_map(room)
+    save_map(grid, tmp_path / "room.yaml")
+    slam_map = tmp_path / "maps" / "room_slam"
+    slam_map.mkdir(parents=True)
+    (slam_map / "map.yaml").write_text("format: raspv-slam-map\nversion: 1\n")
+    (slam_map / "building_alignment.yaml").write_text(
+        f"building_map: {tmp_path / 'room.yaml'}\nbuilding_map_sha256: ''\n"
+        "building_from_map: {x: 0.5, y: -0.25, yaw_deg: 30.0, score: 0.9, matched: 0.8}\n")
+    graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}]},
+           "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
+           "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": [3.2, 1.5],
+                                           "slam_map": str(slam_map)}}})
+    costmap = probe.wait_for_message("/nav/global_costmap", OccupancyGridMsg, timeout=60, qos=LATCHED_QOS)
+    yaw = np.radians(30.0)
+    R = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+    expected = R.T @ (np.array(grid.origin[:2]) - [0.5, -0.25])            # M ← B of the building's origin
+    origin = costmap.info.origin
+    assert np.allclose([origin.position.x, origin.position.y], expected, atol=1e-6)
+    assert abs(2 * np.degrees(np.arctan2(origin.orientation.z, origin.orientation.w)) + 30.0) < 1e-3

@@ -33,6 +33,25 @@ def test_package_dependencies_follow_the_imports():
     assert {k for n in package_names() for k in describe(n).executables} == set(NODES)
 
 
+def test_package_dependencies_have_no_cycle():
+    """colcon orders packages topologically and refuses a cycle (the slow build below would
+    fail on it): a cycle is named here in a second."""
+    deps = {n: set(describe(n).raspv_deps) for n in package_names()}
+    state: dict[str, str] = {}
+
+    def visit(name: str, path: list[str]) -> None:
+        if state.get(name) == "done":
+            return
+        assert state.get(name) != "open", "package cycle: " + " -> ".join(path[path.index(name):] + [name])
+        state[name] = "open"
+        for dep in sorted(deps.get(name, ())):
+            visit(dep, path + [name])
+        state[name] = "done"
+
+    for name in sorted(deps):
+        visit(name, [])
+
+
 def colcon_env() -> dict[str, str]:
     """The venv's ROS (ament, rosidl, cmake modules) for building raspv_msgs, as tools/install.sh.
     MAKEFLAGS: colcon-cmake otherwise adds ``-l<cores>``, and make then runs one job at a time
