@@ -46,6 +46,7 @@ from raspv_hmd.websocket_link import WebSocketLink
 __all__ = ["CLOSE_TIMEOUT_S", "STATIC_FILES", "WS_PATH", "Callbacks", "ClientStats", "HeadsetServer", "ServerConfig",
            "ServerError", "ServerStats", "is_loopback"]
 
+ANSWERED_REFUSALS = 20              # refused messages each answered with `refused` (beyond: every 10th)
 BYE_TIMEOUT_S = 0.5                 # a bye that cannot be written by then (client not reading) is given up
 
 
@@ -579,9 +580,8 @@ class HeadsetServer:
         victim = min(watchers, key=lambda s: (s.last_active, s.id))
         why = (f"evicted: the server was full ({self.config.max_clients} clients) and a client that wants "
                f"control ({hello.name or peer}) needed a watcher's slot")
-        victim.evicted = why
+        victim.evicted = why               # logged once, by its own loop as it ends (with its counts)
         self._dropped["evicted"] += 1
-        self._event(f"client {victim.id} '{victim.name}' {why}")
         await self._send_bye(victim.link, why)
         await victim.link.close()
         if victim.task is not None:        # its own loop removes it from the sessions
@@ -638,7 +638,7 @@ class HeadsetServer:
         if total >= self.config.max_refused:
             await self._send_bye(s.link, f"{total} refused messages; last: {exc}")
             raise Drop("abuse", f"{total} refused messages (last: {exc.code}: {exc})")
-        if s.refused[exc.code] <= 3 or total % 10 == 0:       # do not echo a flood back
+        if total <= ANSWERED_REFUSALS or total % 10 == 0:      # one each; a flood beyond: every 10th
             await self._say(s, P.server_message("refused", code=exc.code, reason=str(exc), count=total))
 
     async def _dispatch(self, s: ClientSession, msg: P.ClientMessage) -> None:

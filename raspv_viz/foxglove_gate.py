@@ -4,7 +4,8 @@ foxglove-sdk's server has no authentication, so off-loopback the `foxglove` node
 ephemeral loopback port and puts this gate on the public address: a WebSocket request whose URL
 carries the right ``?token=…`` (compared in constant time) is relayed frame by frame to the SDK
 server with the subprotocol the client asked for; anything else gets HTTP 403 and never reaches
-it. In the Foxglove app: Open connection → Foxglove WebSocket → ``ws://HOST:PORT/?token=TOKEN``.
+it. A client that does not offer the subprotocol the SDK speaks (``foxglove.sdk.v1``; an older
+Foxglove app offers only ``foxglove.websocket.v1``) gets HTTP 400 saying so. In the Foxglove app: Open connection → Foxglove WebSocket → ``ws://HOST:PORT/?token=TOKEN``.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from websockets.http11 import Request, Response
 
 from raspv_hmd.http_pages import is_loopback
 
-__all__ = ["TokenGate", "is_loopback"]
+__all__ = ["TokenGate", "is_loopback", "unsupported_subprotocol"]
 MAX_MESSAGE = 64 * 1024 * 1024      # bytes: a client's largest frame to the server (parameter sets, not images)
 
 
@@ -71,11 +72,15 @@ class TokenGate:
 
     def _check(self, connection: ServerConnection, request: Request) -> Response | None:
         given = parse_qs(urlsplit(request.path).query).get("token", [""])[0]
-        if hmac.compare_digest(given.encode(), self.token.encode()):
-            return None
-        self.refused += 1
-        return connection.respond(403, "This Foxglove server needs its token: ws://HOST:PORT/?token=... as printed "
-                                       "at its start-up.\n")
+        if not hmac.compare_digest(given.encode(), self.token.encode()):
+            self.refused += 1
+            return connection.respond(403, "This Foxglove server needs its token: ws://HOST:PORT/?token=... as "
+                                           "printed at its start-up.\n")
+        offered = [p.strip() for p in ",".join(request.headers.get_all("Sec-WebSocket-Protocol")).split(",") if p.strip()]
+        if self.subprotocols[0] not in offered:
+            self.refused += 1
+            return connection.respond(400, unsupported_subprotocol(offered) + "\n")
+        return None
 
     async def _relay(self, client: ServerConnection) -> None:
         subprotocols = [client.subprotocol] if client.subprotocol else list(self.subprotocols)
@@ -87,6 +92,14 @@ class TokenGate:
                                    return_when=asyncio.FIRST_COMPLETED)
         except (OSError, ConnectionClosed):
             pass
+
+
+def unsupported_subprotocol(offered: list[str]) -> str:
+    """Why a client offering ``offered`` subprotocols is refused, in one line."""
+    what = ", ".join(offered) if offered else "no subprotocol"
+    return (f"this Foxglove server (foxglove-sdk) speaks the WebSocket subprotocol foxglove.sdk.v1; the client "
+            f"offered {what} (an older Foxglove app or another client): use a Foxglove app that connects to "
+            f"foxglove-sdk servers")
 
 
 async def _pump(source, sink) -> None:

@@ -14,6 +14,7 @@ which admits only WebSocket requests carrying ``?token=…`` (as the headset bri
 """
 from __future__ import annotations
 
+import logging
 import secrets
 import threading
 from dataclasses import dataclass
@@ -27,9 +28,31 @@ foxglove = require("foxglove", "the foxglove node (the graph live in the Foxglov
 from foxglove import Capability, Parameter, ParameterType, Schema  # noqa: E402
 from raspv_viz.foxglove_gate import TokenGate, is_loopback
 
-SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")
+SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")   # the SDK speaks the first; the gate relays either
 STOP_WAIT_S = 2.0    # s: the SDK's stop waits for every client's queue to drain; a client that stopped reading
                      # (a laptop gone to sleep) made it wait for that client's TCP to fail (46 s here)
+
+
+HANDSHAKE_HINT = ("the SDK accepts only clients offering the WebSocket subprotocol foxglove.sdk.v1: an older "
+                  "Foxglove app offering only foxglove.websocket.v1 gets HTTP 400, as does a request that is not "
+                  "a WebSocket upgrade")
+
+
+class _HandshakeReason(logging.Filter):
+    """foxglove-sdk logs a refused handshake as "Dropping client ADDR: handshake failed" (the
+    client gets HTTP 400 "Missing expected sec-websocket-protocol header"): add why, so the node's
+    log says it."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if message.endswith("handshake failed"):
+            record.msg, record.args = f"{message} ({HANDSHAKE_HINT})", ()
+        return True
+
+
+_SDK_SERVER_LOG = logging.getLogger("foxglove.websocket.server")
+if not any(isinstance(f, _HandshakeReason) for f in _SDK_SERVER_LOG.filters):
+    _SDK_SERVER_LOG.addFilter(_HandshakeReason())
 
 
 def ros2msg_schema(msgtype: str) -> bytes | None:

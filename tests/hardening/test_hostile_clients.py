@@ -52,7 +52,30 @@ def test_a_controlling_headset_gets_a_watchers_slot(start_server, server_events)
             await ws.close()
 
     asyncio.run(run())
-    assert any("evicted" in e for e in server_events)
+    evictions = [e for e in server_events if "evicted" in e]
+    assert len(evictions) == 1 and "received" in evictions[0], evictions     # once, with its counts (issue 36)
+
+
+def test_each_refused_message_is_answered_before_the_bye(start_server):
+    """20 malformed messages of five kinds: a `refused` for each of the first 19, then the 20th
+    reaches max_refused and is answered by the `bye` (issue 36: 15 replies, one per kind up to 3)."""
+    server = start_server(max_refused=20)
+    bad = ["not json", "[1, 2]", '{"type": "teleport"}', '{"type": "key", "key": ""}', '{"type": "ack", "seq": 99}']
+
+    async def run():
+        ws, welcome = await ws_hello(server, name="sloppy", role="watch")
+        assert welcome["type"] == "welcome"
+        for i in range(20):
+            await ws.send(bad[i % len(bad)])
+        answers = []
+        while not answers or answers[-1]["type"] != "bye":
+            answers.append(await ws_next_json(ws))
+        refused = [a for a in answers if a["type"] == "refused"]
+        assert [a["count"] for a in refused] == list(range(1, 20)), answers
+        assert "20 refused messages" in answers[-1]["reason"]
+        await ws.close()
+
+    asyncio.run(run())
 
 
 def test_clients_in_line_for_control_keep_their_place(start_server):

@@ -253,3 +253,35 @@ def test_without_the_extra_the_node_says_so_in_one_line():
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 1 and len(lines) == 1, res.stderr
     assert "'foxglove' extra" in lines[0] and "EXTRAS=foxglove" in lines[0], lines[0]
+
+
+def test_a_client_offering_only_the_old_subprotocol_is_told_why(caplog):
+    """Issue 36: a client offering only foxglove.websocket.v1 got a bare HTTP 400 and the node's
+    log said "handshake failed": on loopback (the SDK itself answers) the log says why; behind the
+    gate the answer does."""
+    import asyncio
+
+    from websockets.asyncio.client import connect
+
+    async def offer_old(url):
+        with pytest.raises(InvalidStatus) as refused:
+            async with connect(url, subprotocols=["foxglove.websocket.v1"], open_timeout=30):
+                pass
+        return refused.value.response
+
+    for host in ("127.0.0.1", "0.0.0.0"):
+        server = FoxgloveServer(ServerConfig(host=host, port=0, sysinfo_topic=""), lambda t: None, lambda t: None)
+        server.start()
+        try:
+            with caplog.at_level("ERROR", logger="foxglove.websocket.server"):
+                response = asyncio.run(offer_old(server.url().replace("0.0.0.0", "127.0.0.1")))
+                if host == "127.0.0.1":
+                    _wait(lambda: any("handshake failed" in r.getMessage() for r in caplog.records), "no log line", 10)
+        finally:
+            server.stop()
+        assert response.status_code == 400
+        if host == "127.0.0.1":
+            line = next(r.getMessage() for r in caplog.records if "handshake failed" in r.getMessage())
+            assert "foxglove.sdk.v1" in line and "foxglove.websocket.v1" in line, line
+        else:
+            assert b"offered foxglove.websocket.v1" in response.body and b"foxglove.sdk.v1" in response.body

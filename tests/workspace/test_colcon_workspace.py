@@ -116,3 +116,16 @@ def test_colcon_build_of_the_repository(tmp_path, probe):
         except subprocess.TimeoutExpired:
             node.kill()
             node.wait()
+
+
+def test_the_recipe_counts_the_packages_and_keeps_colcon_logs_out_of_the_repository():
+    """Issue 36: docs/DEVELOPING.md said 11 ament_python packages, and its in-repository colcon
+    build left a `log/` folder that git did not ignore."""
+    import re
+
+    text = (REPO_ROOT / "docs" / "DEVELOPING.md").read_text()
+    count = re.search(r"raspv_msgs \(ament_cmake\) \+ (\d+) ament_python packages", text)
+    assert count and int(count.group(1)) == len(package_names()), (count, package_names())
+    in_repository = [line for line in text.splitlines() if "colcon" in line and "--base-paths ." in line]
+    assert in_repository and all("--log-base" in line for line in in_repository), in_repository
+    assert "/log/" in (REPO_ROOT / ".gitignore").read_text().split()
