@@ -26,6 +26,7 @@ from raspv_common import frames, topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, seconds_to_stamp
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import IMU_QOS, SENSOR_QOS
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.tf_messages import StaticTfBroadcaster
 
 
@@ -98,6 +99,11 @@ class CameraNode(RaspvNode):
     def _run(self) -> None:
         try:
             outcome = self.runner.run()
+        except SHUTDOWN_ERRORS as exc:    # Ctrl-C or SIGTERM shut the context down while a frame was published
+            outcome = "stopped"
+            if not during_shutdown(exc, self.context):
+                self.get_logger().fatal(f"camera thread failed: {exc!r}")
+                outcome = "failed"
         except Exception as exc:          # a bug must not leave a node that publishes nothing
             self.get_logger().fatal(f"camera thread failed: {exc!r}")
             outcome = "failed"

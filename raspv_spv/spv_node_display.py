@@ -15,6 +15,7 @@ from rclpy._rclpy_pybind11 import RCLError
 from sensor_msgs.msg import Image
 
 from raspv_common.conversions import stamp_to_seconds
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv import staleness
@@ -105,7 +106,12 @@ class SpvDisplay:
         resumes from now (the frames missed are counted as dropped by ``tick``)."""
         raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)   # where allowed (thread_priority.py)
         while self.clock.wait(1.0 / self.params["rate"], self._follows_input()):
-            self.tick()
+            try:
+                self.tick()
+            except SHUTDOWN_ERRORS as exc:          # Ctrl-C/SIGTERM ended the context during a tick
+                if during_shutdown(exc, self.context):
+                    return
+                raise
 
     def _follows_input(self) -> bool:
         """New content is shown at once: ``display_on_input`` with the temporal model off or
