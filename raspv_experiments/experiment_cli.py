@@ -38,6 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                                     "protocol's record.bag)")
     p.add_argument("--realtime", action="store_true", help="scripted subjects too walk in real time (default: "
                                                            "lockstep, as fast as the machine allows)")
+    p.add_argument("--other-representation", action="store_true",
+                   help="run a learned patient on phosphenes it was not trained on (refused otherwise; the "
+                        "records say other_representation: true)")
     p = sub.add_parser("sweep", help="many scripted-subject sessions in parallel (worker processes or Ray)")
     p.add_argument("sweep")
     p.add_argument("--out", default=None, help="output folder (default: sweeps/<sweep name>)")
@@ -53,7 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default=None, help="CSV file (default: sweeps/<sweep name>/quick_trials.csv)")
     p.add_argument("--subjects", default=None, metavar="N,N,...", help="only these virtual subjects of the sweep")
     p.add_argument("--figure", default=None, metavar="DIR",
-                   help="also draw the summary per level (success, time, collisions with CIs) into DIR/levels.png, .pdf")
+                   help="also draw the summary per level (success, time, collisions with CIs) into DIR/levels.png, .pdf; "
+                        "over several factors every cell, into DIR/cells.png")
     p.add_argument("--summarise", nargs="+", default=None, metavar="CSV",
                    help="run nothing: summarise these quick-sweep CSVs (e.g. one per --subjects process)")
     p = sub.add_parser("report", help="tidy CSV and HTML report with figures and statistics")
@@ -173,7 +177,7 @@ def _run(args) -> int:
     apply_middleware_defaults()
     options = RunOptions(out=Path(args.out), subject=subject, policy=policy, number=number, resume=args.resume,
                          bag=args.bag, lockstep=False if args.realtime else None,
-                         headless=False if args.realtime else None)
+                         headless=False if args.realtime else None, other_representation=args.other_representation)
     holder: dict = {}
     view = TerminalView(on_key=lambda key: holder["runner"].control.key(key) if "runner" in holder else None)
     runner = None
@@ -266,8 +270,12 @@ def _quick_sweep(args) -> int:
     else:
         out = Path(args.out or f"sweeps/{sweep.name}/quick_trials.csv")
         records = run_quick_sweep(sweep, out)
-    factor = next(iter(sweep.protocol.factors), None)
     limits = {t.name: t.time_limit for t in sweep.protocol.tasks}
+    if len(sweep.protocol.factors) > 1:
+        _summarise_cells(sweep, records, limits, args.figure)
+        print(f"trials: {out}")
+        return 0
+    factor = next(iter(sweep.protocol.factors), None)
     levels = sweep.protocol.factors.get(factor)
     summaries = summarise(records, limits, factor, levels)
     print(summary_table(summaries, factor or "condition"))
@@ -277,15 +285,42 @@ def _quick_sweep(args) -> int:
         png = level_summaries(summaries, factor or "condition", Path(args.figure), title=sweep.name)
         print(f"figure: {Path(args.figure).parent / png}")
     if factor and levels and len(levels) >= 3:
-        from raspv_experiments.trend import ordered_trends, trend_table
-
-        try:
-            print(f"\nTrend over {factor} (in the sweep file's order; raspv_experiments/trend.py):")
-            print(trend_table(ordered_trends(records, limits, factor, [str(v) for v in levels]), factor))
-        except ValueError as exc:
-            print(f"no trend: {exc}")
+        _print_trend(records, limits, factor, [str(v) for v in levels], "")
     print(f"trials: {out}")
     return 0
+
+
+def _print_trend(records, limits, factor: str, levels: list[str], where: str) -> None:
+    from raspv_experiments.trend import ordered_trends, trend_table
+
+    try:
+        print(f"\nTrend over {factor}{where} (in the sweep file's order; raspv_experiments/trend.py):")
+        print(trend_table(ordered_trends(records, limits, factor, levels), factor))
+    except ValueError as exc:
+        print(f"no trend: {exc}")
+
+
+def _summarise_cells(sweep, records, limits, figure: str | None) -> None:
+    """A sweep over several factors: every cell (combination of levels) summarised and drawn,
+    and the trend over the first factor within each combination of the others."""
+    from raspv_experiments.quick_sweep import summarise, summary_table
+
+    factors = list(sweep.protocol.factors)
+    cells = {c.name: {f: str(c.factors.get(f, "")) for f in factors} for c in sweep.protocol.conditions}
+    summaries = summarise(records, limits, None, [c.name for c in sweep.protocol.conditions])
+    print(summary_table(summaries, "condition", cells))
+    if figure:
+        from raspv_experiments.report_figures import cell_summaries
+
+        png = cell_summaries(summaries, cells, factors, Path(figure), title=sweep.name)
+        print(f"figure: {Path(figure).parent / png}")
+    first, levels = factors[0], [str(v) for v in sweep.protocol.factors[factors[0]]]
+    if len(levels) >= 3:
+        others = dict.fromkeys(tuple(cell[f] for f in factors[1:]) for cell in cells.values())
+        for combination in others:
+            names = {n for n, cell in cells.items() if tuple(cell[f] for f in factors[1:]) == combination}
+            where = ", ".join(f"{f}={v}" for f, v in zip(factors[1:], combination))
+            _print_trend([r for r in records if r.condition in names], limits, first, levels, f" at {where}")
 
 
 def _report(args) -> int:

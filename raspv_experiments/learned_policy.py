@@ -86,6 +86,40 @@ def load_model(path: str):
     return session, json.loads(meta["raspv_patient"])
 
 
+OTHER_REPRESENTATION_HINT = ("run it anyway with --other-representation (the records then say "
+                             "\"other_representation\": true), or train one on this representation")
+
+
+def representation(spv_params: dict) -> dict:
+    """What a patient sees with these spv node parameters (the node's defaults for the rest):
+    the mode, the device's phosphene count, field of view [deg], grid and field shape."""
+    from raspv_bringup.registry import schema_for
+    from raspv_spv.spv_node_rebuild import checked_config
+
+    config, _ = checked_config({**schema_for("spv").defaults(), **spv_params})
+    d = config.device
+    return {"mode": config.mode, "phosphenes": int(d.num_phosphenes), "fov_deg": round(float(d.fov_deg), 3),
+            "grid": d.grid, "field": d.field}
+
+
+def describe_representation(rep: dict) -> str:
+    return (f"{rep['mode']}, {rep['phosphenes']} phosphenes over {rep['fov_deg']:g} deg "
+            f"({rep['grid']} grid, {rep['field']} field)")
+
+
+def representation_mismatch(model: str | Path, spv_params: dict) -> str | None:
+    """One line naming both representations when the patient ``model`` ('' = shipped) was
+    trained on another than ``spv_params`` show; None when they agree. Outside its training
+    representation the shipped patient reached 0 of 6 goals of the example (issue 33)."""
+    path = Path(model) if model else DEFAULT_MODEL
+    _, meta = load_model(str(path))
+    trained, shown = representation(meta.get("spv", {})), representation(spv_params)
+    if trained == shown:
+        return None
+    return (f"learned virtual patient {path.name} was trained on {describe_representation(trained)}; "
+            f"this shows {describe_representation(shown)}: refused — {OTHER_REPRESENTATION_HINT}")
+
+
 def check_model(value: str) -> None:
     """File check of the subject node's ``model`` parameter ('' is the shipped model)."""
     load_model(str(Path(value) if value else DEFAULT_MODEL))

@@ -3,9 +3,10 @@ rclpy, no graph): every virtual subject × condition × task × repetition of th
 the same cores a session runs (simulator, phosphene simulator, the policy), in seconds per trial
 instead of the lockstep graph's minutes — for sweeps with many trials on a small machine
 (``raspv experiment quick-sweep SWEEP``). The records are not a session's (no trial logs, no
-display record) but one CSV row per trial; the summary gives, per level of the sweep's first
-factor, success, collisions and completion time with bootstrap 95 % confidence intervals over
-subjects (seeded, so the same sweep gives the same table).
+display record) but one CSV row per trial; the summary gives, per level of the sweep's factor
+(per cell — each combination of levels — when it has several), success, collisions and
+completion time with bootstrap 95 % confidence intervals over subjects (seeded, so the same
+sweep gives the same table).
 
 Only conditions the phosphene simulator renders alone are run here: modes that need the scene
 node (Chess-Floor, Wall-Obstacles, …) run in sessions (``raspv experiment sweep``).
@@ -87,6 +88,15 @@ def check_quick(sweep: Sweep) -> list[str]:
         if other:
             problems.append(f"{sweep.path}: condition {c.name}: sets {', '.join(other)} parameters; "
                             f"quick sweeps vary only spv parameters; {SCENE_MODES_HINT}")
+    if sweep.policy == "learned":
+        from raspv_experiments.learned_policy import representation_mismatch
+
+        for c in sweep.protocol.conditions:
+            mismatch = representation_mismatch(sweep.subject_params.get("model", ""), {**base, **c.params.get("spv", {})})
+            if mismatch:
+                problems.append(f"{sweep.path}: condition {c.name}: {mismatch.split(': refused')[0]}: refused "
+                                "(a quick sweep runs a learned patient only on its training representation)")
+                break
     return problems
 
 
@@ -123,7 +133,9 @@ def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
             t0 = time.monotonic()
             res = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
                               (task.goal.x, task.goal.y, task.goal.radius), task.time_limit, spv=spv,
-                              policy=sweep.policy, config=config, rate=rate, size=size)
+                              policy=sweep.policy, config=config, rate=rate, size=size,
+                              policy_kw={"model": sweep.subject_params["model"]}
+                              if sweep.policy == "learned" and sweep.subject_params.get("model") else None)
             length = float(np.hypot(*np.diff(np.asarray(res.path), axis=0).T).sum()) if len(res.path) > 1 else 0.0
             rec = QuickTrialRecord(subject, cond.name, dict(cond.factors), task.name, rep, res.success,
                                    res.time_s if res.success else math.nan, res.time_s, res.collisions, length,
@@ -232,12 +244,16 @@ def summarise(records: list[QuickTrialRecord], time_limits: dict[str, float], fa
     return out
 
 
-def summary_table(summaries: list[LevelSummary], factor: str) -> str:
-    """A Markdown table of :func:`summarise`'s rows."""
-    lines = [f"| {factor} | shown | subjects | success [95 % CI] | collisions/trial [95 % CI] | time s [95 % CI] |",
-             "|---|---|---|---|---|---|"]
+def summary_table(summaries: list[LevelSummary], factor: str,
+                  cells: dict[str, dict[str, str]] | None = None) -> str:
+    """A Markdown table of :func:`summarise`'s rows; with ``cells`` (condition → {factor: level},
+    the rows summarised per condition of a sweep over several factors) a column per factor."""
+    names = list(next(iter(cells.values()))) if cells else [factor]
+    lines = [f"| {' | '.join(names)} | shown | subjects | success [95 % CI] | collisions/trial [95 % CI] | "
+             "time s [95 % CI] |", "|---" * len(names) + "|---|---|---|---|---|"]
     for s in summaries:
-        lines.append(f"| {s.level} | {s.phosphenes_shown} | {s.subjects} | {100 * s.success:.0f} % "
+        first = " | ".join(str(cells[s.level].get(n, "")) for n in names) if cells else s.level
+        lines.append(f"| {first} | {s.phosphenes_shown} | {s.subjects} | {100 * s.success:.0f} % "
                      f"[{100 * s.success_ci[0]:.0f}, {100 * s.success_ci[1]:.0f}] | {s.collisions:.2f} "
                      f"[{s.collisions_ci[0]:.2f}, {s.collisions_ci[1]:.2f}] | {s.time_s:.1f} "
                      f"[{s.time_ci[0]:.1f}, {s.time_ci[1]:.1f}] |")

@@ -33,11 +33,14 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
                 spv: dict[str, Any], policy: str | Callable[..., Any] = "navigate", config: PolicyConfig | None = None,
                 rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5,
                 planner: dict[str, Any] | None = None, policy_kw: dict[str, Any] | None = None,
-                on_frame: Callable[[Any], None] | None = None) -> QuickResult:
+                on_frame: Callable[[Any], None] | None = None, other_representation: bool = False) -> QuickResult:
     """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
     ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``.
     ``policy`` is a policy name or a callable (layout, config, goal=…) → Policy; ``policy_kw`` go to its constructor (e.g. ``model`` of ``learned``); ``on_frame``
-    gets the simulation before each decision (demonstrations: the expert's ground truth)."""
+    gets the simulation before each decision (demonstrations: the expert's ground truth). A
+    ``learned`` patient shown another representation than it was trained on is refused
+    (:class:`~raspv_experiments.learned_policy.LearnedModelError`, one line naming both) unless
+    ``other_representation``."""
     from raspv_bringup.registry import schema_for
     from raspv_sim.avatar import head_quaternion
     from raspv_sim.simulator import SimConfig, Simulation
@@ -46,6 +49,12 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     from raspv_spv.spv_node_rebuild import build_simulator
 
     params = {**schema_for("spv").defaults(), **spv}
+    if policy == "learned" and not other_representation:
+        from raspv_experiments.learned_policy import LearnedModelError, representation_mismatch
+
+        mismatch = representation_mismatch((policy_kw or {}).get("model", ""), spv)
+        if mismatch:
+            raise LearnedModelError(mismatch)
     spv_sim = build_simulator(params)
     m = spv_sim.map
     layout = PhospheneLayout(m.centres[:, 0].astype(float), m.centres[:, 1].astype(float), spv_sim.config.width,

@@ -11,7 +11,9 @@ subjects × conditions table. Then:
   samples without ties) between every pair of conditions, with **Holm's correction** for the
   number of pairs; they assume the paired differences are symmetric about their median; pairs
   whose differences are all zero get no test;
-- subjects missing a condition are left out of that measure (complete cases only).
+- subjects missing a condition are left out of that measure (complete cases only);
+- success with one trial per subject and condition is a paired binary outcome: Cochran's Q and
+  exact McNemar tests instead (:mod:`raspv_experiments.paired_binary`).
 
 With n subjects a two-sided Wilcoxon test cannot give p below 2 / 2ⁿ, so fewer than 6 subjects
 can never reach p < 0.05: the report says so rather than showing bare p-values.
@@ -44,6 +46,8 @@ ASSUMPTIONS = [
     "Only subjects with every condition enter a measure's tests (complete cases). Failed trials enter the "
     "completion-time medians at their duration (the time limit): those times are censored, not missing — the "
     "Kaplan–Meier curves and log-rank tests below treat them as such.",
+    "Success with one trial per subject and condition (a paired 0/1 outcome): Cochran's Q across conditions and "
+    "exact McNemar tests for pairs (discordant subjects), Holm-corrected, instead of Friedman and Wilcoxon.",
     "Effect sizes: Kendall's W (Friedman) and the matched-pairs rank-biserial r (Wilcoxon); 95 % confidence "
     "intervals of the median paired difference by bootstrapping subjects (seeded).",
 ]
@@ -78,6 +82,7 @@ class MeasureTests:
     kendall_w: float = math.nan
     pairs: list[PairTest] = field(default_factory=list)
     note: str = ""
+    binary: bool = False                 # a paired 0/1 outcome: Cochran's Q and McNemar (raspv_experiments.paired_binary)
 
 
 def holm(pvalues: list[float]) -> list[float]:
@@ -110,6 +115,11 @@ def subject_table(values: dict[tuple[str, str], list[float]], conditions: list[s
 
 def compare_conditions(measure: str, values: dict[tuple[str, str], list[float]], conditions: list[str],
                  proportion: bool = False) -> MeasureTests:
+    if proportion:
+        from raspv_experiments.paired_binary import compare_binary, is_paired_binary
+
+        if is_paired_binary(values, conditions):         # one 0/1 per subject and condition
+            return compare_binary(measure, values, conditions)
     subjects, table = subject_table(values, conditions, proportion)
     res = MeasureTests(measure, conditions, subjects, table)
     n = len(subjects)

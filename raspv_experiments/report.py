@@ -17,7 +17,11 @@ and of sweeps alike). Out come, in ``-o OUT``:
 
 Sessions of different protocols (a different name or file content) are not pooled unless asked
 (``pool=True``, ``--pool``): the report refuses, naming them. Pooled, a subject is
-``protocol/subject``, so two protocols' S01 stay two subjects.
+``protocol/subject``, so two protocols' S01 stay two subjects. Likewise sessions of different
+kinds of subject — people, and each virtual patient's policy (``navigate``, ``learned`` …) —
+are not one population: the report refuses to pool them unless asked, and says so when it does.
+A report of virtual patients says so at its top; the learning figure (completion time across
+repetitions) is left out when every condition ran once.
 """
 from __future__ import annotations
 
@@ -91,17 +95,33 @@ def protocols_of(records: list[dict[str, Any]], sessions: list[dict[str, Any]]) 
     return out
 
 
+def subject_kinds(records: list[dict[str, Any]]) -> dict[str, int]:
+    """Kind of subject → its number of trial records: ``person``, or ``virtual patient (POLICY)``."""
+    out: dict[str, int] = {}
+    for r in records:
+        kind = f"virtual patient ({r['policy']})" if r.get("policy") else "person"
+        out[kind] = out.get(kind, 0) + 1
+    return out
+
+
 def check_pooling(records: list[dict[str, Any]], sessions: list[dict[str, Any]], pool: bool) -> list[str]:
-    """The protocols pooled (empty: one protocol); ReportError when there are several and not ``pool``."""
+    """What is pooled (empty: one protocol, one kind of subject); ReportError when several
+    protocols or kinds of subject are there and not ``pool``."""
+    kinds = subject_kinds(records)
+    if len(kinds) > 1 and not pool:
+        raise ReportError(f"the folders hold sessions of {len(kinds)} kinds of subject: "
+                          f"{'; '.join(f'{k}: {n} records' for k, n in sorted(kinds.items()))}. Report each on its "
+                          "own (one folder per kind), or pass --pool to pool them")
+    pooled_kinds = [f"subjects: {k}" for k in sorted(kinds)] if len(kinds) > 1 else []
     protocols = protocols_of(records, sessions)
     variants = sum(max(1, len(v)) for v in protocols.values())
     if variants <= 1:
-        return []
+        return pooled_kinds
     names = [f"{n} (file {h})" if h else n for n, hs in sorted(protocols.items()) for h in (sorted(hs) or [""])]
     if not pool:
         raise ReportError(f"the folders hold sessions of {variants} different protocols: {'; '.join(names)}. Report "
                           "each on its own, or pass --pool to pool them (subjects are then protocol/subject)")
-    return names
+    return names + pooled_kinds
 
 
 def pooled_labels(sessions: list[dict[str, Any]]) -> dict[str, str]:
@@ -212,7 +232,8 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bo
 
     records, sessions = find_records(dirs)
     pooled = check_pooling(records, sessions, pool)
-    rows = tidy_rows(records, pooled_labels(sessions) if pooled else None)
+    several_protocols = any(not p.startswith("subjects: ") for p in pooled)
+    rows = tidy_rows(records, pooled_labels(sessions) if several_protocols else None)
     declared: dict[str, list[str]] = {}
     for s in sessions:
         for k, v in (s.get("factors") or {}).items():
@@ -253,7 +274,8 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bo
             geometry = None
         figures.append((figs.trajectories(data, conditions, task, fig_dir, geometry),
                         f"Trajectories of task {task} over the world's occupancy map."))
-    figures.append((figs.learning(data, conditions, fig_dir), "Completion time across repetitions."))
+    if max((int(r.get("repetition") or 1) for r in data), default=1) > 1:     # one repetition draws no learning
+        figures.append((figs.learning(data, conditions, fig_dir), "Completion time across repetitions."))
     tests = []
     for key, label, proportion in MEASURES:
         values: dict[tuple[str, str], list[float]] = {}
@@ -264,7 +286,7 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bo
             if isinstance(v, (int, float)):
                 values.setdefault((r["subject"], r["condition"]), []).append(float(v))
         tests.append(compare_conditions(label, values, conditions, proportion))
-    extra = {"warnings": sections.warnings_for(data, conditions, pooled),
+    extra = {"warnings": sections.warnings_for(data, conditions, pooled), "virtual": virtual_note(records),
              "subjects": sections.per_subject_table(data, conditions), "survival": survival_html,
              "factors": sections.main_effects_table(data, factors) if factors else "",
              "display": sections.display_section(data, conditions, share_threshold)}
@@ -273,6 +295,17 @@ def build_report(dirs: list[Path], out: Path, title: str | None = None, pool: bo
     path = out / "report.html"
     path.write_text(page, encoding="utf-8")
     return path
+
+
+def virtual_note(records: list[dict[str, Any]]) -> str:
+    """A paragraph saying the subjects were virtual patients ('' when all were people)."""
+    policies = sorted({str(r["policy"]) for r in records if r.get("policy")})
+    if not policies:
+        return ""
+    some = " Some" if len(policies) < len(subject_kinds(records)) else " All"
+    return (f"<p id='virtual' class='warning'>{some} subjects were <b>virtual patients</b> (scripted policy "
+            f"{', '.join(policies)}: simulated walkers that see only the phosphenes, "
+            "raspv_experiments/policies.py), not people: these are not human results.</p>")
 
 
 def _html(title, rows, data, conditions, figures, tests, sessions, extra) -> str:
@@ -305,6 +338,7 @@ figcaption, .note {{ font-size: 0.85em; color: #555; }}
 <h1>Experiment report: {html.escape(title)}</h1>
 <p id="counts">{len(rows)} trial records ({counts}) from {len(sessions)} session(s); {len(data)} completed non-practice
 trials in {len(conditions)} conditions are analysed. Data: <a href="trials.csv">trials.csv</a> (one row per trial).</p>
+{extra["virtual"]}
 <div id="warnings">{warn}</div>
 <h2>Summary per condition</h2>
 {summary_table(data, conditions)}

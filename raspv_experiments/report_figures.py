@@ -207,3 +207,35 @@ def level_summaries(summaries, factor: str, out: Path, name: str = "levels", tit
         fig.suptitle(title)
     fig.tight_layout()
     return _save(fig, out, name)
+
+
+def cell_summaries(summaries, cells: dict[str, dict[str, str]], factors: list[str], out: Path, name: str = "cells",
+                   title: str = "") -> str:
+    """Success, completion time (limit counted) and collisions of every cell of a sweep over
+    several factors: the first factor's levels along x, one line per combination of the others
+    (``cells``: condition → {factor: level}), means over subjects with their 95 % CIs."""
+    first, rest = factors[0], factors[1:]
+    levels = list(dict.fromkeys(cells[s.level][first] for s in summaries))
+    series: dict[str, list] = {}
+    for s in summaries:
+        label = ", ".join(f"{f.split('.')[-1]}={cells[s.level][f]}" for f in rest)
+        series.setdefault(label, []).append(s)
+    fig, axes = plt.subplots(1, 3, figsize=(8.0, 2.6))
+    panels = (("reached the goal [%]", lambda s: (100 * s.success, [100 * v for v in s.success_ci])),
+              ("time [s] (limit counted)", lambda s: (s.time_s, list(s.time_ci))),
+              ("collisions per trial", lambda s: (s.collisions, list(s.collisions_ci))))
+    for ax, (label, get) in zip(axes, panels):
+        for k, (series_label, rows) in enumerate(series.items()):
+            x = np.array([levels.index(cells[s.level][first]) for s in rows]) + 0.06 * (k - (len(series) - 1) / 2)
+            mean = np.array([get(s)[0] for s in rows])
+            ci = np.array([get(s)[1] for s in rows])
+            ax.errorbar(x, mean, yerr=[mean - ci[:, 0], ci[:, 1] - mean], color=COLORS[k % len(COLORS)], marker="o",
+                        capsize=3, label=series_label)
+        ax.set_xticks(np.arange(len(levels)), levels)
+        ax.set_xlabel(first.split(".")[-1])
+        ax.set_ylabel(label)
+    axes[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, out, name)

@@ -33,9 +33,14 @@ def warnings_for(data: list[dict], conditions: list[str], pooled: list[str]) -> 
     """What a reviewer would point out first: conditions that never reached the goal (a baseline
     that fails everywhere measures nothing), nothing reached at all, pooled protocols."""
     out = []
-    if pooled:
-        out.append(f"This report pools {len(pooled)} protocols ({', '.join(pooled)}), as asked (--pool); subjects "
+    protocols = [p for p in pooled if not p.startswith("subjects: ")]
+    kinds = [p.removeprefix("subjects: ") for p in pooled if p.startswith("subjects: ")]
+    if protocols:
+        out.append(f"This report pools {len(protocols)} protocols ({', '.join(protocols)}), as asked (--pool); subjects "
                    "are kept apart per protocol (protocol/subject).")
+    if kinds:
+        out.append(f"This report pools {len(kinds)} kinds of subject ({', '.join(kinds)}), as asked (--pool): the "
+                   "statistics treat them as one population.")
     never = [c for c in conditions if any(r["condition"] == c for r in data)
              and not any(r["condition"] == c and r["success"] for r in data)]
     if data and len(never) == len(conditions):
@@ -106,6 +111,14 @@ def effects_table(t: MeasureTests) -> str:
     """The pairwise tests with effect sizes and bootstrap intervals."""
     if not t.pairs:
         return ""
+    if t.binary:
+        rows = ["<table class='stats'><tr><th>pair</th><th>n</th><th>difference in success [95 % bootstrap CI]</th>"
+                "<th>McNemar exact p</th><th>p (Holm)</th><th></th></tr>"]
+        for p in t.pairs:
+            ci = f" [{fmt(p.ci_low, 2)}, {fmt(p.ci_high, 2)}]" if not math.isnan(p.ci_low) else ""
+            rows.append(f"<tr><td>{esc(p.a)} − {esc(p.b)}</td><td>{p.n}</td><td>{fmt(p.median_difference, 2)}{ci}</td>"
+                        f"<td>{fmt(p.p, 3)}</td><td>{fmt(p.p_holm, 3)}</td><td>{esc(p.note)}</td></tr>")
+        return "".join(rows) + "</table>"
     rows = ["<table class='stats'><tr><th>pair</th><th>n</th><th>median difference [95 % bootstrap CI]</th>"
             "<th>rank-biserial r</th><th>W</th><th>p</th><th>p (Holm)</th><th></th></tr>"]
     for p in t.pairs:
@@ -123,7 +136,11 @@ def stats_section(tests: list[MeasureTests]) -> str:
         parts.append(f"<h3>{esc(t.measure)}</h3>")
         n = len(t.subjects)
         parts.append(f"<p>{n} subject{'' if n == 1 else 's'} with every condition.")
-        if not math.isnan(t.friedman_p):
+        if t.binary and not math.isnan(t.friedman_p):
+            parts.append(f" Cochran's Q({len(t.conditions) - 1}) = {t.friedman_statistic:.2f}, p = {t.friedman_p:.3g}.")
+        elif t.binary and t.friedman_note:
+            parts.append(f" Cochran's Q: {esc(t.friedman_note)}.")
+        elif not math.isnan(t.friedman_p):
             parts.append(f" Friedman χ²({len(t.conditions) - 1}) = {t.friedman_statistic:.2f}, p = {t.friedman_p:.3g}, "
                          f"Kendall's W = {t.kendall_w:.2f}.")
         elif t.friedman_note:

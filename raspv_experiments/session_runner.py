@@ -57,6 +57,7 @@ class RunOptions:
     bag: bool | None = None           # default: the protocol's record.bag
     keys: bool = True                 # read the experimenter's keys from the terminal
     subject_params: dict[str, Any] = field(default_factory=dict)
+    other_representation: bool = False  # a learned patient may see another representation than it was trained on
     stop: threading.Event = field(default_factory=threading.Event)   # set to stop between two polls
 
     @property
@@ -148,6 +149,22 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
     return g
 
 
+def learned_mismatch(protocol: Protocol, options: RunOptions) -> str | None:
+    """The first condition whose phosphenes a ``learned`` subject was not trained on, as one
+    line naming both representations (None: every condition is its training representation)."""
+    if options.policy != "learned":
+        return None
+    from raspv_experiments.learned_policy import representation_mismatch
+
+    for c in protocol.conditions:
+        for n in (n for n in protocol.graph.nodes if n.kind == "spv"):
+            spv = {**n.params, **protocol.trial_params(c.name).get(n.name, {})}
+            mismatch = representation_mismatch(options.subject_params.get("model", ""), spv)
+            if mismatch:
+                return f"{protocol.path}: condition {c.name}: {mismatch}"
+    return None
+
+
 def _world_groups(protocol: Protocol, trials: list[PlannedTrial],
                   by_condition: bool = False) -> list[tuple[str, str | None, list[PlannedTrial]]]:
     """Consecutive trials in the same world (and condition, ``by_condition``): the graph restarts
@@ -202,11 +219,15 @@ class SessionRunner:
                                "run without --resume to start it")
         f.create(self.protocol, self.subject, self.plan,
                  {"subject_kind": "scripted" if self.options.scripted else "person", "policy": self.options.policy,
-                  "subject_params": self.options.subject_params, "argv": sys.argv})
+                  "subject_params": self.options.subject_params, "argv": sys.argv,
+                  **({"other_representation": True} if self.options.other_representation else {})})
         f.event("started", trials=len(self.plan))
         return list(self.plan)
 
     def run(self) -> int:
+        mismatch = learned_mismatch(self.protocol, self.options)
+        if mismatch and not self.options.other_representation:
+            raise SessionError(mismatch)
         todo = self.prepare()
         self.state.total = len(self.plan)
         self.state.done = self.state.done_before = len(self.plan) - len(todo)
@@ -436,6 +457,8 @@ class SessionRunner:
             "time_limit_s": task.time_limit, "params": params, "run_dir": str(run_dir),
             "sim_start_s": round(start_t, 4), "sim_end_s": round(end_t, 4), "finished": now_iso(),
             "policy": self.options.policy}
+        if self.options.other_representation and self.options.policy == "learned":
+            record["other_representation"] = True        # run outside its training representation, as told
         factors = self.protocol.condition(trial.condition).factors
         if factors:
             record["factors"] = dict(factors)

@@ -111,3 +111,30 @@ def test_the_shipped_model_has_its_provenance_and_turns_towards_the_goal():
         out[name] = p.decide(np.zeros(100))
     assert out["ahead"][0] > 0.1, out
     assert out["left"][1] - out["ahead"][1] > 0.2 and out["ahead"][1] - out["right"][1] > 0.2, out
+
+
+def test_outside_its_training_representation_it_is_refused_naming_both(tmp_path, example_doc, write_protocol):
+    """The documented example shows Argus II (60 phosphenes over 20°); the shipped patient was
+    trained on depth at 26×26 over 35° and reached 0 of 6 goals there without a word."""
+    from raspv_experiments.learned_policy import representation_mismatch
+    from raspv_experiments.protocol import load_protocol
+    from raspv_experiments.quick_trial import quick_trial
+    from raspv_experiments.session_runner import RunOptions, SessionRunner
+
+    shown = {"device": "argus_ii", "mode": "depth", "temporal": False, "max_depth": 3.0}
+    line = representation_mismatch("", shown)
+    assert "\n" not in line and "676 phosphenes over 35 deg" in line and "60 phosphenes over 20 deg" in line
+    trained = load_model(str(DEFAULT_MODEL))[1]["spv"]
+    assert representation_mismatch("", trained) is None
+    with pytest.raises(LearnedModelError, match="60 phosphenes over 20 deg"):
+        quick_trial(str(REPO / "experiments/worlds/hallway.yaml"), (1.0, 1.5, 0.0), (8.6, 1.5, 0.8), 1.0, spv=shown, policy="learned")
+    ok = quick_trial(str(REPO / "experiments/worlds/hallway.yaml"), (1.0, 1.5, 0.0), (8.6, 1.5, 0.8), 0.3, spv=shown,
+                     policy="learned", other_representation=True)
+    assert ok.phosphenes == 60
+    protocol = load_protocol(write_protocol(example_doc))
+    options = RunOptions(out=tmp_path / "sessions", subject="scripted-learned-1", policy="learned", number=1, keys=False)
+    from raspv_experiments.session import SessionError
+
+    with pytest.raises(SessionError, match="condition depth: learned virtual patient .* 60 phosphenes over 20 deg"):
+        SessionRunner(protocol, options, view=None, say=lambda s: None).run()
+    assert not (tmp_path / "sessions").exists()                 # refused before anything was written

@@ -51,8 +51,9 @@ def test_small_samples_incomplete_subjects_and_ties():
     assert lo == pytest.approx(0.1078, abs=1e-3) and hi == pytest.approx(0.6032, abs=1e-3)
 
 
-def fake_session(root, subject, times):
-    """trials.jsonl of a session with completed trials (condition → list of completion times)."""
+def fake_session(root, subject, times, policy=None):
+    """trials.jsonl of a session with completed trials (condition → list of completion times);
+    ``policy``: a virtual patient's."""
     path = root / "example" / subject / "trials.jsonl"
     path.parent.mkdir(parents=True)
     index = 0
@@ -70,9 +71,10 @@ def fake_session(root, subject, times):
                             "path_efficiency": 0.97 if ok else float("nan"), "collisions": rep - 1,
                             "collided_with": ["box:crate"] * (rep - 1), "min_clearance_m": 0.2,
                             "head_rotation_deg": 10.0, "head_rotation_deg_per_s": 1.0},
-                "trajectory": {"t": [0, 1], "x": [1.0, 2.0], "y": [1.5, 1.5], "yaw": [0, 0]}})
+                "trajectory": {"t": [0, 1], "x": [1.0, 2.0], "y": [1.5, 1.5], "yaw": [0, 0]}, "policy": policy})
     append_jsonl(path, {"protocol": "example", "subject": subject, "condition": "depth", "task": "hallway",
-                        "index": index + 1, "repetition": 1, "practice": False, "attempt": 1, "status": "skipped"})
+                        "index": index + 1, "repetition": 1, "practice": False, "attempt": 1, "status": "skipped",
+                        "policy": policy})
 
 
 def test_report_from_sessions(tmp_path):
@@ -191,3 +193,54 @@ def test_report_renders_a_friedman_result(tmp_path):
     section = page.split("<h3>completion time [s]</h3>")[1].split("<h3>")[0]
     assert f"Friedman χ²(2) = {f.statistic:.2f}, p = {f.pvalue:.3g}, Kendall's W = {w:.2f}." in section, section[:600]
     assert f.pvalue < 0.05                       # the shifts are clear: the test is not a formality
+
+
+def test_virtual_patients_of_two_policies_are_not_pooled_silently_and_are_called_virtual(tmp_path):
+    fake_session(tmp_path / "s", "scripted-navigate-1", {"depth": [12.0], "downsampling": [25.0]}, policy="navigate")
+    fake_session(tmp_path / "s", "scripted-learned-1", {"depth": [40.0], "downsampling": [40.0]}, policy="learned")
+    with pytest.raises(ReportError, match=r"2 kinds of subject: virtual patient \(learned\): 3 records; "
+                                          r"virtual patient \(navigate\): 3 records"):
+        build_report([tmp_path / "s"], tmp_path / "report")
+    page = build_report([tmp_path / "s"], tmp_path / "report", pool=True).read_text()
+    assert "pools 2 kinds of subject" in page and "virtual patients</b> (scripted policy learned, navigate" in page
+    assert "figures/learning.png" not in page                      # one repetition: nothing to learn across
+    alone = build_report([tmp_path / "s" / "example" / "scripted-navigate-1"], tmp_path / "r1").read_text()
+    assert "All subjects were <b>virtual patients</b> (scripted policy navigate" in alone and "pools" not in alone
+
+
+def test_a_report_of_people_does_not_call_them_virtual(tmp_path):
+    fake_session(tmp_path / "s", "S01", {"depth": [12.0, 11.0], "downsampling": [25.0, 31.0]})
+    page = build_report([tmp_path / "s"], tmp_path / "report").read_text()
+    assert "virtual patients" not in page and "figures/learning.png" in page
+
+
+def test_paired_binary_success_uses_cochrans_q_and_mcnemar():
+    from raspv_experiments.paired_binary import cochran_q, mcnemar_exact
+    from raspv_experiments.repeated_measures import compare_conditions
+
+    table = np.array([[1, 1, 0], [1, 0, 0], [1, 1, 1], [1, 0, 0]])
+    q, p = cochran_q(table)                       # by hand: 2 (3·21 − 49) / (3·7 − 15) = 14/3
+    assert q == pytest.approx(14 / 3) and p == pytest.approx(math.exp(-7 / 3))       # χ²(2) tail: e^(−Q/2)
+    rng = np.random.default_rng(3)
+    a, b = rng.integers(0, 2, 40), rng.integers(0, 2, 40)
+    only_a, only_b, p2 = mcnemar_exact(a, b)
+    assert cochran_q(np.column_stack([a, b]))[0] == pytest.approx((only_a - only_b) ** 2 / (only_a + only_b))
+    assert p2 == pytest.approx(stats.binomtest(only_a, only_a + only_b).pvalue)
+    # one trial per subject and condition: the success comparison is McNemar's, not Wilcoxon's
+    values = {(f"S{i}", c): [float(v)] for i, row in enumerate(table) for c, v in zip(("x", "y", "z"), row)}
+    res = compare_conditions("success rate", values, ["x", "y", "z"], proportion=True)
+    assert res.binary and res.friedman_statistic == pytest.approx(14 / 3) and len(res.pairs) == 3
+    xz = res.pairs[1]
+    assert (xz.a, xz.b) == ("x", "z") and xz.p == pytest.approx(0.25) and xz.median_difference == pytest.approx(0.75)
+    # repeated trials give fractions: the rank tests stay
+    repeated = {k: v * 2 for k, v in values.items()}
+    assert not compare_conditions("success rate", repeated, ["x", "y", "z"], proportion=True).binary
+
+
+def test_the_report_names_mcnemar_for_one_trial_per_condition(tmp_path):
+    for i in range(6):
+        fake_session(tmp_path / "s", f"S{i + 1:02d}", {"depth": [12.0], "downsampling": [25.0 if i < 2 else 35.0]})
+    page = build_report([tmp_path / "s"], tmp_path / "report").read_text()
+    section = page.split("<h3>success rate</h3>")[1].split("<h3>")[0].split("<h2>")[0]
+    assert "McNemar exact p" in section and "4 succeeded only in depth, 0 only in downsampling" in section
+    assert "Wilcoxon" not in section

@@ -114,3 +114,41 @@ def test_the_shipped_rows_are_what_the_code_gives():
         s = shipped[(r.subject, r.condition)]
         assert (r.success, r.collisions, r.duration_s) == (s.success, s.collisions, pytest.approx(s.duration_s)), r
         assert np.isclose(r.path_length_m, s.path_length_m)
+
+
+@pytest.mark.slow                     # 9999 bootstrap resamples per cell and measure: ~20 s on a loaded machine
+def test_a_quick_sweep_over_two_factors_summarises_and_draws_every_cell(tmp_path, capsys):
+    """Before: only the first factor was summarised, its "shown" column the median over the second
+    factor's levels (100 and 729 phosphenes → 414) and one line drawn."""
+    (tmp_path / "worlds").mkdir()
+    (tmp_path / "worlds" / "hallway.yaml").write_text((REPO / "experiments" / "worlds" / "hallway.yaml").read_text())
+    (tmp_path / "short.yaml").write_text((REPO / "experiments" / "example.yaml").read_text())
+    (tmp_path / "sweep.yaml").write_text(
+        "name: two\nprotocol: short.yaml\npolicy: navigate\nsubjects: 3\nrepetitions: 1\n"
+        "factors: {spv.mode: [depth, grey], spv.num_phosphenes: [100, 729, 2500]}\n")
+    rows = []
+    for subject in (1, 2, 3):
+        for mode in ("depth", "grey"):
+            for n in (100, 729, 2500):
+                ok = mode == "depth" or (n == 2500 and subject < 3)          # grey works only with many phosphenes
+                rows.append(QuickTrialRecord(subject, f"mode={mode}-num_phosphenes={n}",
+                                             {"spv.mode": mode, "spv.num_phosphenes": str(n)}, "hallway", 1, ok,
+                                             20.0 if ok else float("nan"), 20.0 if ok else 40.0, 0 if ok else 2,
+                                             7.0, n, 1.0))
+    path = tmp_path / "rows.csv"
+    with open(path, "w", newline="") as handle:
+        w = csv.DictWriter(handle, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow(r.row())
+    from raspv_bringup.cli import main
+
+    code = main(["experiment", "quick-sweep", str(tmp_path / "sweep.yaml"), "--summarise", str(path),
+                 "--figure", str(tmp_path / "fig")])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert "| spv.mode | spv.num_phosphenes | shown |" in out.out
+    for mode, n, success in (("depth", 100, 100), ("grey", 100, 0), ("grey", 729, 0), ("grey", 2500, 67)):
+        assert f"| {mode} | {n} | {n} | 3 | {success} % " in out.out, out.out
+    assert "414" not in out.out
+    assert (tmp_path / "fig" / "cells.png").stat().st_size > 10_000
