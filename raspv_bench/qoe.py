@@ -6,8 +6,8 @@ and for ``--minutes`` records: the page's frame rate and frame age, the spv node
 frames by what they showed (the configured mode, a fallback, the no-data ring) and its dropped
 ticks, stale episodes per minute (``/spv/status``), CPU per process — every node and chromium —
 and the bytes the page received. Then, with the browser still open, it hands control to a step
-client for head-yaw steps (onset latency at a client, as ``raspv bench e2e``, temporal model off
-for that phase) and, with ``--kill``, kills a node with SIGKILL and times what the display shows.
+client for head-yaw steps (onset latency at a client, as ``raspv bench e2e``, temporal model on
+as the graph runs it; ``--temporal off`` switches it off for that phase) and, with ``--kill``, kills a node with SIGKILL and times what the display shows.
 ``--replay FILE`` runs the camera graph replaying a recording (looped) instead.
 
 Targets (issue 21): 0 stale episodes in 10 minutes without a fault; ≥ 99.5 % of displayed frames
@@ -40,6 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--minutes", type=float, default=5.0, help="measuring window (default 5)")
     parser.add_argument("--replay", metavar="FILE", help="the camera graph replaying this recording (looped)")
     parser.add_argument("--steps", type=int, default=20, help="head-yaw steps after the window (0: none)")
+    parser.add_argument("--temporal", choices=("on", "off"), default="on",
+                        help="the temporal model during the head-yaw steps: as the graph runs it (default on) or "
+                             "switched off (the comparison)")
     parser.add_argument("--kill", metavar="NODE", help="SIGKILL this node at the end and time what is shown")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM:=VALUE",
                         help="extra parameter override (repeatable)")
@@ -172,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
                     print(f"  head-turn onset: not measured — the viewer's head does not turn this graph's camera "
                           f"(camera_source {camera_source}: docs/spv.md, Latency: display-time reprojection)")
                 elif steps:
-                    _onsets(g, page, workdir, steps, failures)
+                    _onsets(g, page, workdir, steps, failures, temporal=args.temporal == "on")
                 if args.kill:
                     _kill(g, frames, args.kill, failures)
             finally:
@@ -298,20 +301,22 @@ def _png_bytes(probe, count: int = 25) -> float | None:
     return float(np.mean(sizes))
 
 
-def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
+def _onsets(g, page, workdir: Path, steps: int, failures: list[str], temporal: bool = True) -> None:
     """Head-yaw steps from a step client (the browser hands it control and stays open), with
-    the temporal model off and the client at the headset's priority as in ``raspv bench e2e``
-    (it stands in for the headset's own processor)."""
+    the temporal model as the graph runs it (``temporal`` False: switched off for the steps, the
+    comparison) and the client at the headset's priority as in ``raspv bench e2e`` (it stands in
+    for the headset's own processor)."""
     from raspv_bench.motion_latency import analyse_steps
 
     url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=5).group(1)
-    try:
-        subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "param", "set", "spv", "temporal", "false"],
-                       capture_output=True, timeout=60)
-    except subprocess.TimeoutExpired:
-        print("  head-turn steps skipped: `raspv param set spv temporal false` took longer than 60 s")
-        failures.append("head-turn steps not measured")
-        return
+    if not temporal:
+        try:
+            subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "param", "set", "spv", "temporal", "false"],
+                           capture_output=True, timeout=60)
+        except subprocess.TimeoutExpired:
+            print("  head-turn steps skipped: `raspv param set spv temporal false` took longer than 60 s")
+            failures.append("head-turn steps not measured")
+            return
     page.keyboard.press("c")                                     # the page gives control up
     page.wait_for_function("() => window.raspvClient.role === 'watch'", timeout=10_000)
     out = workdir / "steps.npz"
@@ -332,7 +337,8 @@ def _onsets(g, page, workdir: Path, steps: int, failures: list[str]) -> None:
     results, skipped = analyse_steps(data["receipt"], data["stamps"], data["frames"], data["step_times"])
     onset = [1e3 * r.onset_s for r in results if r.onset_s is not None]
     p50, p95 = _percentiles(onset, 50, 95)
-    print(f"  head-turn onset with the browser open (temporal model off, {len(results)} of {steps} steps counted): "
+    print(f"  head-turn onset with the browser open (temporal model {'on' if temporal else 'off'}, image change at the "
+          f"client, {len(results)} of {steps} steps counted): "
           f"p50 {p50:.1f} ms, p95 {p95:.1f} ms, max {max(onset) if onset else float('nan'):.1f} ms")
     if onset and p95 > TARGETS["onset_p95_ms"]:
         failures.append(f"head-turn onset p95 {p95:.1f} ms")

@@ -331,14 +331,19 @@ def quick(args: argparse.Namespace) -> None:
 
 def measure(args: argparse.Namespace) -> dict[str, float]:
     """Every part asked for; the ratios against the peers run side by side (name → times
-    faster; a peer not installed gives none): ``per_phosphene_loop``, ``pulse2percept``,
-    ``dynaphos``, ``axon_map_pulse2percept``."""
+    faster; a peer not installed gives none): ``per_phosphene_loop``, ``temporal_lut``,
+    ``temporal_p2p`` (raspv_bench/spv_temporal.py), ``pulse2percept``, ``dynaphos``,
+    ``axon_map_pulse2percept``."""
     from raspv_bench import spv_sprite_models
 
     if args.quick:
         quick(args)
         print("raspv bench spv --quick: small sizes, few frames — a smoke run, not the speed page's figures")
     ratios = part_ours(args)
+    if not args.no_temporal:
+        from raspv_bench.spv_temporal import part_temporal
+
+        ratios.update(part_temporal(args))
     if not args.no_peers:
         ratios["pulse2percept"] = part_pulse2percept(args)
         ratios["dynaphos"] = part_dynaphos(args)

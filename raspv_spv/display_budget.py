@@ -4,7 +4,8 @@ Every display frame the spv node advances the temporal model, renders the sprite
 and publishes the image, whatever the inputs do. That work grows with three counts of the
 configuration, known before anything is built:
 
-- ``phosphenes`` N: levels → brightness, the temporal look-up, the per-phosphene message arrays;
+- ``phosphenes`` N: levels → brightness, the temporal look-up (or the recursive temporal model,
+  timed itself on a frame that delivers a pulse), the per-phosphene message arrays;
 - ``sprite_pixels``: lit pixels summed over the visible phosphenes (≈ N·(1 − dropout)·area of one
   sprite) — the sparse product that draws them;
 - ``image_bytes``: width · height · channels — clearing, the 8-bit conversion, copies into the
@@ -43,6 +44,7 @@ import numpy as np
 
 WARN_FRACTION = 0.5        # predicted frame time above this fraction of the period: warn
 REFUSE_FRACTION = 1.0      # above the whole period: refuse
+HEADSET_RATES = (50.0, 72.0, 90.0, 120.0)   # display rates /spv/status prices (the paper's 50 Hz, headsets')
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,7 @@ class DisplayLoad:
     sprite_pixels: int         # lit pixels over all visible phosphenes
     image_bytes: int           # width · height · channels of the published image
     rate_hz: float
+    recursive: bool = False    # the recursive temporal model (else the look-up table, or none)
 
     @property
     def period_ms(self) -> float:
@@ -67,11 +70,15 @@ class DisplayCost:
     per_phosphene_ns: float
     per_image_byte_ns: float
     fixed_us: float
+    recursive_per_phosphene_ns: float = 0.0    # the recursive temporal model, a frame with a pulse
+    recursive_fixed_us: float = 0.0
 
     def frame_ms(self, load: DisplayLoad) -> float:
         """Predicted time of one display frame of ``load`` [ms]."""
         ns = (self.per_sprite_pixel_ns * load.sprite_pixels + self.per_phosphene_ns * load.phosphenes
               + self.per_image_byte_ns * load.image_bytes)
+        if load.recursive:
+            ns += self.recursive_per_phosphene_ns * load.phosphenes + self.recursive_fixed_us * 1e3
         return ns * 1e-6 + self.fixed_us * 1e-3
 
     @classmethod
@@ -149,10 +156,32 @@ class DisplayCost:
                 bytes(data)                      # stands for the serialisation copy
             return best(once)
 
+        # the recursive temporal model (raspv_spv/temporal_recursive.py), itself: a frame that
+        # delivers a pulse (every frame at the pulse rate; the dearer case)
+        from raspv_spv.temporal_recursive import RecursiveConfig, RecursiveTemporalState, recursive_model
+
+        model = recursive_model(RecursiveConfig())
+
+        def recursive_work(n: int) -> float:
+            state = RecursiveTemporalState(model, n)
+            amp = (rng.random(n) > 0.5).astype(np.float32)
+            clock = [0.0]
+
+            def once():
+                clock[0] += model.config.period_ms
+                state.advance(clock[0], amp)
+            once()
+            return best(once)
+
+        r_small, r_large = recursive_work(2000), recursive_work(20000)
+        per_recursive = max(0.0, (r_large - r_small) / 18000)
+        recursive_fixed = max(0.0, r_small - per_recursive * 2000)
+
         i_small, i_large = image_work(200), image_work(800)
         per_byte = max(0.0, (i_large - i_small) / (800 * 800 - 200 * 200))
         fixed = max(0.0, i_small - per_byte * 200 * 200) + max(0.0, p_small - per_phosphene * 2000)
-        return cls(per_sprite_pixel * 1e9, per_phosphene * 1e9, per_byte * 1e9, fixed * 1e6)
+        return cls(per_sprite_pixel * 1e9, per_phosphene * 1e9, per_byte * 1e9, fixed * 1e6,
+                   per_recursive * 1e9, recursive_fixed * 1e6)
 
 
 @dataclass(frozen=True)
@@ -205,7 +234,9 @@ def load_of_config(config: Any) -> DisplayLoad:
     visible = int(np.count_nonzero(~m.dropped))
     channels = 3 if config.output_format == "green" else 1
     per_sprite = min(sprite_pixel_count(m.diameter_px), config.width * config.height)   # no larger than the image
-    return DisplayLoad(m.count, visible * per_sprite, config.width * config.height * channels, config.frame_rate)
+    recursive = bool(config.temporal) and config.temporal_update == "recursive"
+    return DisplayLoad(m.count, visible * per_sprite, config.width * config.height * channels, config.frame_rate,
+                       recursive)
 
 
 def observed_overhead_ms(tick_ms: Sequence[float], current: DisplayLoad, cost: DisplayCost | None = None,
@@ -228,6 +259,9 @@ def check_display_rate(load: DisplayLoad, cost: DisplayCost | None = None, overh
     period = load.period_ms
     per_phosphene_ns = cost.per_phosphene_ns + cost.per_sprite_pixel_ns * load.sprite_pixels / max(1, load.phosphenes)
     fixed_ms = cost.fixed_us * 1e-3 + cost.per_image_byte_ns * load.image_bytes * 1e-6 + overhead_ms
+    if load.recursive:
+        per_phosphene_ns += cost.recursive_per_phosphene_ns
+        fixed_ms += cost.recursive_fixed_us * 1e-3
     max_n = int(max(0.0, (REFUSE_FRACTION * period - fixed_ms) * 1e6 / per_phosphene_ns)) if per_phosphene_ns > 0 else 0
     refuse = frame > REFUSE_FRACTION * period
     warn = not refuse and frame > WARN_FRACTION * period
@@ -239,6 +273,23 @@ def check_display_rate(load: DisplayLoad, cost: DisplayCost | None = None, overh
                    f"a display frame takes ~{frame:.1f} ms of the {period:.1f} ms period; at most ~{max_n} "
                    f"phosphenes of this size fit (or lower rate, width, phosphene_fov_deg)")
     return RateVerdict(refuse, warn, frame, period, max_n, message)
+
+
+def rate_costs(load: DisplayLoad, cost: DisplayCost | None = None, overhead_ms: float = 0.0,
+               rates: Sequence[float] = HEADSET_RATES) -> dict[str, Any]:
+    """What ``load`` costs at its own rate and at each of ``rates`` on this machine, for
+    ``/spv/status``: predicted frame time [ms], the period, the share of it, and the verdict
+    (``ok``, ``warn``: drops frames when the machine is busy, ``refused``: cannot keep it)."""
+    import dataclasses
+
+    def one(rate: float) -> dict[str, Any]:
+        v = check_display_rate(dataclasses.replace(load, rate_hz=rate), cost, overhead_ms)
+        return {"frame_ms": round(v.frame_ms, 3), "period_ms": round(v.period_ms, 3),
+                "share": round(v.frame_ms / v.period_ms, 3), "verdict": "refused" if v.refuse else "warn" if v.warn else "ok"}
+
+    out = {"rate_hz": load.rate_hz, **one(load.rate_hz), "temporal": "recursive" if load.recursive else "lut or off",
+           "rates": {f"{r:g}": one(r) for r in rates}}
+    return out
 
 
 def check_node_params(params: Mapping[str, Any], cost: DisplayCost | None = None,

@@ -500,9 +500,12 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
     def _publish_status(self, plan: staleness.DisplayPlan, configured_mode: str, producers: dict[str, str]) -> None:
         """Latched ``/spv/status`` (JSON): what is shown, why, and the producers' states."""
         self._status_producers = producers
+        self._status_args = (plan, configured_mode, producers)
         status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
                   "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
                   "late_episodes": self.staleness.late_episodes, "producers": dict(sorted(producers.items()))}
+        if getattr(self, "display_costs", None) is not None:
+            status["display"] = self.display_costs          # what the rate costs here (display_budget.rate_costs)
         if getattr(self, "localisation", None) is not None:
             status["localisation"] = self.localisation
         try:

@@ -86,6 +86,7 @@ class SpvReconfiguration:
             config, phosphene_map = checked_config(merged)
         except _BUILD_ERRORS as exc:
             return _reason(exc)
+        self.update_display_costs(config)
         spec, map_id = self._requested
         if drawing_spec(config) != spec:             # one map id per accepted change of the map or its sprites
             map_id += 1
@@ -162,13 +163,26 @@ class SpvReconfiguration:
 
     def display_rate_verdict(self, params: dict) -> display_budget.RateVerdict | None:
         """Can ``params`` run at their display rate here? (:mod:`raspv_spv.display_budget`: a cost
-        model measured on this machine, plus the overhead measured on this node's display loop)."""
+        model measured on this machine, plus the overhead measured on this node's display loop).
+        """
         try:
             current = display_budget.load_of_config(self.sim.config)
             overhead = display_budget.observed_overhead_ms(list(self._tick_ms), current)
         except ValueError:
             overhead = 0.0
+        self._overhead_ms = overhead
         return display_budget.check_node_params(params, overhead_ms=overhead)
+
+    def update_display_costs(self, config: SpvConfig) -> None:
+        """What ``config``'s rate and the headset rates cost on this machine, into ``/spv/status``."""
+        try:
+            load = display_budget.load_of_config(config)
+        except ValueError:
+            return
+        self.display_costs = display_budget.rate_costs(load, overhead_ms=getattr(self, "_overhead_ms", 0.0))
+        args = getattr(self, "_status_args", None)
+        if args is not None:
+            self._publish_status(*args)
 
     def _check_rate_after_start(self) -> None:
         """Once, a few seconds after start: warn when the configuration the node started with
@@ -177,5 +191,6 @@ class SpvReconfiguration:
         if self._stop_display.wait(STARTUP_RATE_CHECK_S):
             return
         verdict = self.display_rate_verdict(dict(self.params))
+        self.update_display_costs(self.sim.config)
         if verdict is not None and (verdict.refuse or verdict.warn) and not self._stop_display.is_set():
             self.get_logger().warning(verdict.message)

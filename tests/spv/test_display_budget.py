@@ -72,3 +72,24 @@ def test_the_measured_cost_is_positive_and_finite():
     for value in (cost.per_sprite_pixel_ns, cost.per_phosphene_ns, cost.per_image_byte_ns, cost.fixed_us):
         assert 0.0 <= value < 1e6
     assert cost.per_sprite_pixel_ns > 0 and cost.per_image_byte_ns > 0
+
+
+def test_the_recursive_temporal_model_is_priced_and_every_headset_rate_is_said():
+    from raspv_spv.display_budget import HEADSET_RATES, rate_costs
+
+    cost = DisplayCost(per_sprite_pixel_ns=1.0, per_phosphene_ns=4.0, per_image_byte_ns=0.15, fixed_us=15.0,
+                       recursive_per_phosphene_ns=40.0, recursive_fixed_us=20.0)
+    config = spv_config("default", temporal_update="recursive")
+    load = load_of_config(config)
+    assert load.recursive and not load_of_config(spv_config("default")).recursive
+    lut = DisplayLoad(load.phosphenes, load.sprite_pixels, load.image_bytes, load.rate_hz)
+    extra = cost.frame_ms(load) - cost.frame_ms(lut)
+    assert extra == pytest.approx((40.0 * load.phosphenes + 20e3) * 1e-6)
+    # 9 ms of sprite work: fits 50 Hz, warned at 72 and 90 (more than half the period), refused at 120 Hz
+    heavy = DisplayLoad(load.phosphenes, 9_000_000, load.image_bytes, 50.0, recursive=True)
+    costs = rate_costs(heavy, cost)
+    assert set(costs["rates"]) == {f"{r:g}" for r in HEADSET_RATES}
+    assert costs["verdict"] == "ok" and costs["rates"]["50"]["verdict"] == "ok"
+    assert costs["rates"]["72"]["verdict"] == costs["rates"]["90"]["verdict"] == "warn"
+    assert costs["rates"]["120"]["verdict"] == "refused"
+    assert costs["rates"]["120"]["share"] > 1.0 and costs["rates"]["120"]["period_ms"] == pytest.approx(8.333, abs=1e-3)

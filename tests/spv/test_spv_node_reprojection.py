@@ -1,6 +1,7 @@
 """The spv node's display loop: the last frame turned to the newest /head/orientation between camera
 frames (display-time reprojection), switched off by a parameter, and shown after a simulated
 device latency — one frame published by the test, no simulator."""
+import json
 import math
 import time
 
@@ -9,11 +10,12 @@ import pytest
 from geometry_msgs.msg import PoseStamped, QuaternionStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_common.qos import COMMAND_QOS, SENSOR_QOS
+from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_msgs.msg import PhospheneFrame
 from raspv_spv.reprojection import OPTICAL_IN_HEAD
 
@@ -124,11 +126,14 @@ def _first_frame(src, frames, of):
     pytest.fail("the spv node never showed a frame")
 
 
-@pytest.mark.parametrize("follow", [True, False])
-def test_with_the_temporal_model_off_a_head_turn_is_shown_at_once_not_at_the_next_tick(graph, probe, follow):
-    # a 1 Hz display: waiting for the tick would take up to a second
+@pytest.mark.parametrize("temporal, follow", [(False, True), (False, False), ("recursive", True)],
+                         ids=["model off", "model off, not following", "recursive model"])
+def test_a_head_turn_is_shown_at_once_not_at_the_next_tick(graph, probe, temporal, follow):
+    # a 1 Hz display: waiting for the tick would take up to a second. The recursive temporal model
+    # is advanced by the real time of each frame: the display follows its input with it on too
     graph({"launch": {"nodes": [{"kind": "spv"}]},
-           "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
+           "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": bool(temporal),
+                                       "temporal_update": temporal or "recursive",
                                        "rate": 1.0, "stale_inputs": False, "display_on_input": follow,
                                        "camera_source": "sim"}}})
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
@@ -151,5 +156,11 @@ def test_with_the_temporal_model_off_a_head_turn_is_shown_at_once_not_at_the_nex
     if follow:
         # at once (at most a quarter period after the previous frame), not up to a second later
         assert max(delays) < 0.5, delays
+    if temporal == "recursive":         # /spv/status says what the rate and the headset rates cost here
+        status = probe.wait_for_message(topics.SPV_STATUS, String, timeout=30, qos=LATCHED_QOS,
+                                        predicate=lambda m: "display" in json.loads(m.data))
+        display = json.loads(status.data)["display"]
+        assert display["rate_hz"] == 1.0 and display["verdict"] == "ok"
+        assert set(display["rates"]) == {"50", "72", "90", "120"} and display["rates"]["90"]["frame_ms"] > 0
     else:
         assert max(delays) > 0.5, delays            # the tick it waited for
