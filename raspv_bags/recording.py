@@ -21,21 +21,29 @@ if TYPE_CHECKING:
 
 # Infrastructure topics left out of "record everything" (name them to record them).
 DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")
+# The rendered phosphene image (800x800 at 50 Hz: ~32 MB/s, most of a demo recording) is left out
+# too: /spv/frame (each phosphene's brightness), /spv/map and /spv/sprites re-render it exactly
+# (:mod:`raspv_bags.shown_render`). Name it, or pass ``images=True`` (``--images``), to record it.
+IMAGE_TOPICS = ("/spv/image",)
 
 
 @dataclass(frozen=True)
 class TopicSelection:
     """Which discovered topics to record: ``topics`` (names or shell patterns such as
-    ``/camera/*``; empty = all) minus ``exclude`` (names or patterns)."""
+    ``/camera/*``; empty = all but :data:`DEFAULT_EXCLUDED`) minus ``exclude`` (names or
+    patterns). The rendered image (:data:`IMAGE_TOPICS`) only when named or with ``images``."""
 
     topics: tuple[str, ...] = ()
     exclude: tuple[str, ...] = ()
+    images: bool = False          # record the rendered phosphene image (IMAGE_TOPICS) with everything
 
     def wants(self, name: str) -> bool:
         if any(fnmatch.fnmatchcase(name, p) for p in self.exclude):
             return False
         if not self.topics:
-            return name not in DEFAULT_EXCLUDED
+            return name not in DEFAULT_EXCLUDED and (self.images or name not in IMAGE_TOPICS)
+        if name in IMAGE_TOPICS and name not in self.topics and not self.images:
+            return False          # a pattern such as '/spv/*' does not bring the image in: name it
         return any(fnmatch.fnmatchcase(name, p) for p in self.topics)
 
     def unmatched(self, seen: Iterable[str]) -> list[str]:

@@ -36,10 +36,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     rec = sub.add_parser("record", help="record topics of the running graph into a bag",
                          description="Record topics of the running graph. Without TOPICS: every topic "
-                                     "(except /rosout, /parameter_events).")
+                                     "(except /rosout, /parameter_events) but the rendered phosphene image "
+                                     "/spv/image, which /spv/frame, /spv/map and /spv/sprites re-render "
+                                     "(raspv render BAG --shown); --images or naming /spv/image records it.")
     rec.add_argument("topics", nargs="*", metavar="TOPIC", help="topic names or patterns like '/camera/*'")
     rec.add_argument("-o", "--output", metavar="DIR", help="bag directory to create (default rosbag2_<date>)")
     rec.add_argument("-x", "--exclude", nargs="+", default=[], metavar="TOPIC", help="topics/patterns to leave out")
+    rec.add_argument("--images", action="store_true",
+                     help="also record the rendered phosphene image /spv/image (~30 MB/s at 800x800, 50 Hz)")
     rec.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
     rec.add_argument("-d", "--duration", type=float, default=None, metavar="S", help="stop after S seconds")
     rec.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
@@ -130,7 +134,7 @@ def _record(args: argparse.Namespace) -> int:
         return _err("record", f"{out} exists already; choose a new output directory")
     if not out.absolute().parent.is_dir():
         return _err("record", f"{out.absolute().parent} is not a directory")
-    selection = TopicSelection(tuple(args.topics), tuple(args.exclude))
+    selection = TopicSelection(tuple(args.topics), tuple(args.exclude), images=args.images)
 
     apply_middleware_defaults()
     import rclpy

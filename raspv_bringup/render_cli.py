@@ -39,6 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="any other spv parameter, e.g. --set num_phosphenes=500 (see `raspv nodes`)")
     spv.add_argument("--scene-set", action="append", default=[], metavar="NAME=VALUE",
                      help="a scene node parameter for the scene modes, e.g. --scene-set stride=2")
+    parser.add_argument("--shown", action="store_true",
+                        help="the wearer's view as it was shown, re-rendered from the recorded /spv/frame and "
+                             "/spv/sprites (the default recording has no /spv/image); the phosphene options are "
+                             "then the recording's own")
     parser.add_argument("--side-by-side", action="store_true",
                         help="colour image and the mode's other inputs (depth) next to the phosphenes")
     parser.add_argument("--start", type=float, default=0.0, metavar="S", help="start S seconds into the bag")
@@ -98,6 +102,60 @@ def _spv_params(args: argparse.Namespace) -> dict:
     return out
 
 
+def _render_shown(args: argparse.Namespace, fail) -> int:
+    """``--shown``: the recorded view, frame by frame (:mod:`raspv_bags.shown_render`)."""
+    import cv2
+    import numpy as np
+
+    from raspv_bags.reader import BagError, BagReader
+    from raspv_bags.shown_render import ShownRenderError, shown_images
+    from raspv_bags.video_sink import VideoError, VideoSink
+
+    sink, frames, stamps, other_size = None, 0, [], 0
+    png_dir = Path(args.png_dir) if args.png_dir else None
+    if png_dir is not None:
+        png_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        with BagReader(args.bag) as reader:
+            first = reader.start_ns / 1e9 if reader.start_ns is not None else 0.0
+            for shown in shown_images(reader):
+                if shown.stamp < first + args.start or (args.duration is not None
+                                                        and shown.stamp >= first + args.start + args.duration):
+                    continue
+                image = shown.image
+                if sink is None and args.output:
+                    sink = VideoSink(Path(args.output), _rate(reader), image.shape[1::-1], image.ndim == 3, args.codec)
+                if sink is not None and image.shape[1::-1] != sink.size:
+                    other_size += 1                  # a device change: another map size (PNGs keep them)
+                elif sink is not None:
+                    sink.write(image)
+                if png_dir is not None:
+                    cv2.imwrite(str(png_dir / f"frame_{frames:06d}.png"), image if image.ndim == 2 else image[..., ::-1])
+                frames += 1
+                stamps.append(shown.stamp)
+            notes = list(reader.notes)
+        if sink is not None:
+            sink.close()
+    except (ShownRenderError, BagError, VideoError) as exc:
+        return fail(str(exc))
+    for note in notes + ([f"{other_size} frames of another map size are not in the video"] if other_size else []):
+        print(f"note: {note}", file=sys.stderr)
+    if not frames:
+        return fail(f"{args.bag}: no /spv/frame with its map's /spv/sprites in the chosen time range")
+    span = stamps[-1] - stamps[0] if len(stamps) > 1 else 0.0
+    outputs = " and ".join(str(p) for p in (args.output, args.png_dir) if p)
+    print(f"{outputs}: {frames} frames as shown ({span:.1f} s, {np.median(np.diff(stamps)) * 1e3 if len(stamps) > 1 else 0:.0f} "
+          f"ms apart)")
+    return 0
+
+
+def _rate(reader) -> float:
+    """The display rate of a recording's /spv/frame [Hz] (its count over its time span)."""
+    info = reader.topics["/spv/frame"]
+    span = (reader.end_ns - reader.start_ns) / 1e9 if reader.end_ns and reader.start_ns else 0.0
+    return max(1.0, min(120.0, info.count / span)) if span > 0 else 50.0
+
+
 def _bar(done: float, total: float, started: float, width: int = 30) -> str:
     frac = min(1.0, done / total) if total > 0 else 1.0
     n = int(round(frac * width))
@@ -123,6 +181,8 @@ def run(args: argparse.Namespace) -> int:
         from raspv_bags.video_sink import require_codec
 
         require_codec(args.codec)  # its extra missing: MissingExtra, one line from `raspv` naming the install
+    if args.shown:
+        return _render_shown(args, fail)
     given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
     if given and len(given) < 4:
         return fail("give all of --fx --fy --cx --cy")

@@ -147,3 +147,15 @@ def test_a_recorder_started_on_a_running_graph_captures_from_its_first_second(gr
     print(f"first message {first:.3f} s after the recorder's spawn; bag opened at {marks['bag opened']:.3f} s")
     assert first < marks["bag opened"], (first, marks)
     assert first < 8.0, (first, marks)
+
+
+def test_the_rendered_image_is_recorded_only_when_asked():
+    """Issue 36: /spv/image (800x800 at 50 Hz) made a demo recording 50-120 MB/s. By default it is
+    left out; the frames, the map and the sprites that re-render it stay."""
+    default = TopicSelection()
+    assert all(default.wants(t) for t in (T.SPV_FRAME, T.SPV_MAP, T.SPV_SPRITES, T.SPV_STATUS, T.COLOR, T.DEPTH))
+    assert not default.wants(T.SPV_IMAGE)
+    assert TopicSelection(images=True).wants(T.SPV_IMAGE) and TopicSelection((T.SPV_IMAGE,)).wants(T.SPV_IMAGE)
+    spv = TopicSelection(("/spv/*",))
+    assert spv.wants(T.SPV_FRAME) and not spv.wants(T.SPV_IMAGE)
+    assert T.SPV_IMAGE not in {n for n, _, _ in known_topics(default.wants)}
