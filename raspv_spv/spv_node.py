@@ -10,14 +10,15 @@ the pose predicted at its stamp and recomputed when its own pose comes; ``predic
 it waits for its pose). Scene modes likewise show each new depth frame at once with the newest
 scene result carried into it, and again with its own when that comes (``carry_scene``,
 :mod:`raspv_perception.scene_carry`).
-A display loop at ``rate`` Hz (50 by default, the temporal model's frame rate) picks the frame
+A display loop at ``rate`` Hz (50 by default; headsets 72, 90, 120) picks the frame
 to show (:class:`~raspv_spv.reprojection.DisplayView`: the newest, or the one captured
 ``device_latency_ms`` ago), re-samples it for the newest head orientation (display-time
-reprojection), advances the temporal model and publishes ``/spv/image`` and ``/spv/frame``
-whatever the inputs do: it never waits for a camera frame, and ticks it could not run on time
-are counted as dropped frames (the temporal model then advances by the frames that elapsed)
-and reported every 10 s. With the temporal model off (``display_on_input``) a head turn or a
-new frame is shown at once instead of at the next tick (:mod:`raspv_spv.display_clock`; the loop
+reprojection), advances the temporal model (the recursive model by the real time elapsed,
+:mod:`raspv_spv.temporal_recursive`; the look-up table by the frames that elapsed) and publishes
+``/spv/image`` and ``/spv/frame`` whatever the inputs do: it never waits for a camera frame, and
+ticks it could not run on time are counted as dropped frames and reported every 10 s. With the
+temporal model off or recursive (``display_on_input``) a head turn or a new frame is shown at
+once instead of at the next tick (:mod:`raspv_spv.display_clock`; the loop
 and the tick are in :mod:`raspv_spv.spv_node_display`).
 With ``headless`` there is no display loop: each computed frame is published at once with its
 input's stamp (sim time in sweeps), the temporal model advancing by the input time elapsed.

@@ -43,6 +43,7 @@ from raspv_spv.temporal_bursts import BurstTables, build_bursts, charge_decay
 MAX_PULSES_PER_STEP = 3000      # a longer gap (a stall, a paused replay) restarts from rest
 REFERENCE_S = 2.0               # y_ref: the largest response over this much continuous pulsing
 DEFAULT_RECOVERY_MS = 200.0
+DTYPE = np.float32              # state and tables: float32 rounding (6e-8) is far below the 1e-4 asked
 
 
 @dataclass(frozen=True)
@@ -113,16 +114,23 @@ class RecursiveModel:
         self.bursts: BurstTables = build_bursts(self.params, config.pulse, config.recovery_ms)
         b = self.bursts
         self.window = b.window_ms
-        # (6, G + 1): burst state and its d-derivative per r2 grid point, zero past the grid
-        self.table = np.ascontiguousarray(np.concatenate([np.concatenate([b.full, b.full_d], axis=1),
-                                                          np.zeros((1, 6))]).T)
+        # (12, G + 1): per r2 grid point, the state a pulse adds (x1, x2, x3) and its derivative in d
+        # (6 rows), then the step to the next grid point (6 rows): one take and one multiply-add
+        # interpolate; 0 past the grid
+        g = b.full.shape[0]
+        values = np.zeros((6, g + 1))
+        values[:3, :g] = b.full.T
+        values[3:, :g] = b.full_d.T
+        steps = np.zeros_like(values)
+        steps[:, :-1] = np.diff(values, axis=1)
+        self.table = np.ascontiguousarray(np.concatenate([values, steps]), dtype=DTYPE)
         self.inv_step = 1.0 / b.r2_step
         self.last_index = float(b.full.shape[0] - 1)
         # partial bursts (S, G + 1, 2): x3 and its d-derivative inside the window
         self.partial = np.concatenate([np.stack([b.partial, b.partial_d], axis=2), np.zeros((b.s_grid.size, 1, 2))],
                                       axis=1)
-        self.through_window = _transition(b.window_ms, self.params.tau3, self.params.tau2, self.k).T
-        self.own_charge = np.array([b.r2_after, b.ca_after])[:, None]
+        self.through_window = _transition(b.window_ms, self.params.tau3, self.params.tau2, self.k).T.astype(DTYPE)
+        self.own_charge = np.array([b.r2_after, b.ca_after], dtype=DTYPE)[:, None]      # (Nanduri: not scaled by its gain)
         self._transitions: dict[float, np.ndarray] = {}
         self.y_ref = 1.0
         self.y_ref = self._reference()
@@ -135,7 +143,7 @@ class RecursiveModel:
         if m is None:
             if len(self._transitions) > 64:
                 self._transitions.clear()
-            m = self._transitions[key] = _transition(dt, self.params.tau3, self.params.tau2, self.k).T
+            m = self._transitions[key] = _transition(dt, self.params.tau3, self.params.tau2, self.k).T.astype(DTYPE)
         return m
 
     def gain(self, peak: np.ndarray) -> np.ndarray:
@@ -171,16 +179,17 @@ class RecursiveTemporalState:
 
     def reset(self) -> None:
         n = self.count
-        self.state = np.zeros((5, n))        # rows x1, x2, x3, r2, ca at t_ref, every burst begun so far included
+        self.state = np.zeros((5, n), DTYPE)        # rows x1, x2, x3, r2, ca at t_ref, every burst begun so far included
         self.top = np.zeros(n)               # Nanduri: the largest r3 so far
-        self.at_pulse = np.zeros((5, n))     # the state at the latest pulse, before its burst
+        self.at_pulse = np.zeros((5, n), DTYPE)     # the state at the latest pulse, before its burst
         self.pulse_index = np.zeros(n, np.intp)
         self.pulse_weight = np.zeros(n)
         self.pulse_d = np.zeros(n)
         self.pulse_scale = np.zeros(n)       # 0: no pulse then; else its burst's scale
         self.amplitude = np.zeros(n, np.float32)
         self.request = np.zeros(n, np.float32)
-        self._on = np.zeros(n)
+        self._on = np.zeros(n, DTYPE)
+        self._on_mask = np.zeros(n, bool)
         self.t_ref = 0.0                     # ms
         self.t_pulse = -math.inf             # onset of the latest pulse [ms]
         self.next_pulse = 0.0
@@ -191,7 +200,7 @@ class RecursiveTemporalState:
         if other.count != self.count or other.model is not self.model:
             raise ValueError("cannot continue a temporal state of another model or number of phosphenes")
         for name in ("state", "top", "at_pulse", "pulse_index", "pulse_weight", "pulse_d", "pulse_scale",
-                     "amplitude", "request", "_on"):
+                     "amplitude", "request", "_on", "_on_mask"):
             np.copyto(getattr(self, name), getattr(other, name))
         self.t_ref, self.t_pulse, self.next_pulse, self.t_last = other.t_ref, other.t_pulse, other.next_pulse, other.t_last
 
@@ -203,27 +212,29 @@ class RecursiveTemporalState:
         s = m.transition(t_p - self.t_ref) @ self.state if t_p > self.t_ref else self.state
         r2 = s[3]
         d = s[4] - r2
-        f = np.minimum(r2 * m.inv_step, m.last_index)
+        f = np.minimum(r2 * DTYPE(m.inv_step), DTYPE(m.last_index))
         i0 = f.astype(np.intp)
         w = f - i0
         rows = m.table.take(i0, axis=1)               # take: ~10x faster than fancy indexing here
-        rows += w * (m.table.take(i0 + 1, axis=1) - rows)
-        burst = rows[:3]
-        burst += d * rows[3:]
+        burst = rows[:6]
+        burst += w * rows[6:]
+        burst = burst[:3]
+        burst += d * rows[3:6]                        # x1, x2, x3 the pulse adds
+        on = self._on
         if m.nanduri:
             t = m.bursts
             grid = np.arange(t.peak.size) * t.r2_step
             peak = np.maximum(np.interp(r2, grid, t.peak, right=0.0) + d * np.interp(r2, grid, t.peak_d, right=0.0), 0.0)
-            self.top = np.where(self._on > 0, np.maximum(self.top, peak), self.top)
-            scale = self._on * m.gain(self.top)
+            self.top = np.where(self._on_mask, np.maximum(self.top, peak), self.top)
+            scale = on * m.gain(self.top)
         else:
-            scale = self._on
+            scale = on
         self.at_pulse, self.pulse_index, self.pulse_weight, self.pulse_d, self.pulse_scale = s, i0, w, d, scale
         new = m.through_window @ s
         new[:3] += scale * burst
-        new[3:] += self._on * m.own_charge
+        new[3:] += on * m.own_charge                  # the pulse's own charge (r2, ca)
         self.state = new
-        np.copyto(self.amplitude, self.request, where=self._on > 0)
+        np.copyto(self.amplitude, self.request, where=self._on_mask)
         self.t_pulse, self.t_ref = t_p, t_p + m.window
 
     def _response(self, t: float) -> np.ndarray:
@@ -242,7 +253,7 @@ class RecursiveTemporalState:
         i0, w = self.pulse_index, self.pulse_weight[:, None]
         rows = m.partial[j] * (1 - ws) + m.partial[j + 1] * ws           # (G + 1, 2) at s
         at = rows.take(i0, axis=0) * (1 - w) + rows.take(i0 + 1, axis=0) * w
-        return y + self.pulse_scale * (at[:, 0] + self.pulse_d * at[:, 1])
+        return np.maximum(y + self.pulse_scale * (at[:, 0] + self.pulse_d * at[:, 1]), 0.0)
 
     def advance(self, t_ms: float, amplitude: np.ndarray) -> np.ndarray:
         """Advance to ``t_ms`` delivering the pulses due since the last call (with the amplitudes
@@ -262,7 +273,8 @@ class RecursiveTemporalState:
             self.reset()
             self.next_pulse, self.t_last = next_pulse, t
             self.request[:] = request
-            self._on = (request > 0).astype(np.float64)
+            self._on_mask = request > 0
+            self._on = self._on_mask.astype(DTYPE)
             self.next_pulse += (due - MAX_PULSES_PER_STEP) * period
             self.t_ref = self.next_pulse
             due = MAX_PULSES_PER_STEP
@@ -271,11 +283,13 @@ class RecursiveTemporalState:
             self.next_pulse += period
         y = self._response(t)
         if self.normalise:
-            brightness = (np.clip(y * self._norm, 0.0, 1.0) * self.amplitude).astype(np.float32)
+            y *= self._norm                          # y ≥ 0: every stage is fed non-negative r3
+            brightness = (np.minimum(y, 1.0, out=y) * self.amplitude).astype(np.float32)
         else:
             brightness = y * self._norm
         np.copyto(self.request, np.asarray(amplitude, dtype=np.float32))
-        self._on = (self.request > 0).astype(np.float64)
+        self._on_mask = self.request > 0
+        self._on = self._on_mask.astype(DTYPE)
         self.t_last = t
         return brightness
 
