@@ -20,6 +20,8 @@ MAX_HEIGHT = 1.90           # ... to head height [m]
 MIN_HITS = 3
 STRIDE = 4
 MARGIN = 0.5                # around what was seen [m]
+MAX_EXTENT = 300.0          # a grid wider than this [m] keeps the square of this side round the points'
+                            # median: a map whose keyframes flew off (lost tracking) must not write GBs
 
 
 def floor_points(slam_map: SlamMap, stride: int = STRIDE) -> np.ndarray:
@@ -52,6 +54,9 @@ def occupancy_from_points(points: np.ndarray, resolution: float = RESOLUTION) ->
     """Occupancy grid of points in a gravity-aligned frame (z up, z = 0 on the floor)."""
     if not len(points):
         return OccupancyGrid(np.full((1, 1), UNKNOWN, np.int8), resolution, (0.0, 0.0))
+    if np.any(np.ptp(points[:, :2], axis=0) > MAX_EXTENT - 2 * MARGIN):
+        centre = np.median(points[:, :2], axis=0)
+        points = points[np.all(np.abs(points[:, :2] - centre) <= MAX_EXTENT / 2 - MARGIN, axis=1)]
     lo = np.floor((points[:, :2].min(axis=0) - MARGIN) / resolution) * resolution
     hi = points[:, :2].max(axis=0) + MARGIN
     cols, rows = (np.ceil((hi - lo) / resolution).astype(int) + 1)
