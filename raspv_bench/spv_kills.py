@@ -140,7 +140,8 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
                 frames.stamps.clear()
         during = g.output                    # (stopping the graph ends spv before the bridge: one more ring line)
     except TimeoutError as exc:
-        raise TimeoutError(f"{exc}; the graph's output:\n{g.output[-4000:]}") from None
+        raise TimeoutError(f"{exc}; the bridge's threads: {_threads(_pid(g, 'bridge'))}; the graph's output:\n"
+                           f"{g.output[-4000:]}") from None
     finally:
         if watcher is not None:
             watcher.close()
@@ -150,6 +151,19 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
         g.stop()
     unknown = [t for t in topics_seen if "UNKNOWN" in t]
     return out, during + "".join(f"\ntopic seen: {t}" for t in unknown)
+
+
+def _threads(pid: int) -> str:
+    """name:state:wait channel of each thread of ``pid`` (what a stuck process waits on)."""
+    out = []
+    for task in sorted(Path(f"/proc/{pid}/task").glob("*")):
+        try:
+            comm = (task / "comm").read_text().strip()
+            state = (task / "stat").read_text().rsplit(")", 1)[1].split()[0]
+            out.append(f"{comm}:{state}:{(task / 'wchan').read_text().strip()}")
+        except OSError:
+            continue
+    return ", ".join(out)
 
 
 def _pid(g, name: str) -> int:

@@ -131,7 +131,7 @@ class _Producer:
         if self.local:
             self.processes[(self.pid, self.started)] = self.state
             if len(self.processes) > MAX_PROCESSES:      # forget processes that are gone (never the newest)
-                for key in [k for k in self.processes if k != (self.pid, self.started)
+                for key in [k for k in list(self.processes) if k != (self.pid, self.started)
                             and proc.process_state(*k) == proc.GONE][:len(self.processes) - MAX_PROCESSES]:
                     del self.processes[key]
 
@@ -144,8 +144,10 @@ class _Producer:
         return {PAUSED: PAUSED, DOWN: GONE}.get(state, ALIVE)
 
     def live_processes(self) -> list[tuple[int, int]]:
-        """The local processes of this node that could publish now (not gone)."""
-        return [k for k in self.processes if self.process_verdict(k) != GONE]
+        """The local processes of this node that could publish now (not gone). Called from a
+        consumer's other threads while its executor adds announcements: iterates a copy (the
+        bridge's frames thread died of "dictionary changed size during iteration")."""
+        return [k for k in list(self.processes) if self.process_verdict(k) != GONE]
 
     @property
     def verdict(self) -> str:

@@ -12,7 +12,9 @@ from typing import Callable
 
 import rclpy
 from rclpy.node import Node
-from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
+
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 
 
 class SideExecutor:
@@ -35,8 +37,9 @@ class SideExecutor:
         try:
             while self._context.ok():
                 self._executor.spin_once(timeout_sec=0.5)
-        except (ExternalShutdownException, ShutdownException, RuntimeError):
-            pass                                    # shutting down
+        except SHUTDOWN_ERRORS as exc:              # shutting down; any other error is a bug and shows
+            if not during_shutdown(exc, self._context):
+                raise
 
     def close(self) -> None:
         """Stop the thread, then destroy the node (never while its executor waits on it)."""

@@ -26,13 +26,14 @@ import time
 
 import numpy as np
 import rclpy
-from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap, PhospheneSprites
 from sensor_msgs.msg import Image
 
 from raspv_common import topics
 from raspv_common.conversions import ImageEncodingError, image_to_array, stamp_to_seconds
 from raspv_common.liveliness import ProducerWatch
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
 from raspv_hmd.levels_stream import FRAME_FALLBACK, FRAME_NO_DATA, pack_levels_payload, sprites_message
 from raspv_spv import staleness
@@ -75,8 +76,9 @@ class BridgeFrames:
         try:
             while self.context.ok():
                 self._frames_executor.spin_once(timeout_sec=0.5)
-        except (ExternalShutdownException, ShutdownException, RuntimeError):
-            pass                                    # shutting down
+        except SHUTDOWN_ERRORS as exc:              # shutting down; anything else is a bug: it shows
+            if not during_shutdown(exc, self.context):   # (a RuntimeError swallowed here once ended the
+                raise                                    # thread silently: a headset without frames or ring)
 
     def _close_frames(self) -> None:
         """Stop the frames thread, then destroy its node (never while its executor waits on it)."""
