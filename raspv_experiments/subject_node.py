@@ -1,7 +1,9 @@
 """`subject` node: a scripted subject (virtual patient) in the graph.
 
 Sees only what a subject sees: ``/spv/map`` (where the phosphenes are) and ``/spv/frame`` (the
-brightness of each). For every frame it publishes a walking command on ``/cmd_vel`` and the head
+brightness of each), and feels what a body feels: a bump (``/sim/collisions``, stamped with the
+camera frame of its step) is felt with that frame, before the policy decides — as
+:func:`~raspv_experiments.quick_trial.quick_trial` calls ``touch()``. For every frame it publishes a walking command on ``/cmd_vel`` and the head
 it holds on ``/head/orientation``, and answers the frame on ``/sim/lockstep`` (TwistStamped,
 stamped with the frame's source stamp) so a simulator in lockstep steps at once. It presses
 'start' when the experiment shows instructions (``/experiment/instructions`` →
@@ -28,11 +30,12 @@ import math
 
 import numpy as np
 from geometry_msgs.msg import Quaternion, QuaternionStamped, Twist, TwistStamped, Vector3, Vector3Stamped
-from raspv_msgs.msg import PhospheneFrame, PhospheneMap
+from raspv_msgs.msg import CollisionEvent, PhospheneFrame, PhospheneMap
 from std_msgs.msg import String
 
 from raspv_common import topics
 from raspv_common.frames import BASE_LINK
+from raspv_common.conversions import stamp_to_seconds
 from raspv_common.node import RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
@@ -71,6 +74,8 @@ class SubjectNode(RaspvNode):
         self.create_subscription(PhospheneMap, topics.SPV_MAP, self.on_map, LATCHED_QOS)
         self.create_subscription(PhospheneFrame, topics.SPV_FRAME, self.on_frame, SENSOR_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
+        self.create_subscription(CollisionEvent, topics.SIM_COLLISIONS, self.on_collision, EVENT_QOS)
+        self._bumps: list[float] = []                    # sim times [s] of bumps not yet felt
         self.get_logger().info(f"scripted subject: policy {self.params['policy']}, seed {self.params['seed']}")
 
     def _new_policy(self, params: dict) -> None:
@@ -147,14 +152,27 @@ class SubjectNode(RaspvNode):
         index = self._seen_at[1]
         return np.where(index >= 0, brightness[np.maximum(index, 0)], 0.0)
 
+    def on_collision(self, msg: CollisionEvent) -> None:
+        """A bump (stamped with the camera frame of the step it happened in): felt with that frame."""
+        self._bumps.append(stamp_to_seconds(msg.header.stamp))
+
+    def _felt(self, t: float) -> bool:
+        """Whether the body bumped into something during this trial up to the frame at sim time ``t``."""
+        felt = [s for s in self._bumps if s <= t + 1e-6]
+        self._bumps = [s for s in self._bumps if s > t + 1e-6]
+        return any(s > self.after + 1e-6 for s in felt)
+
     def on_frame(self, msg: PhospheneFrame) -> None:
         command = Command(0.0, 0.0, math.radians(self.params["head_pitch_deg"]))   # standing, head held
         t = msg.source_stamp.sec + 1e-9 * msg.source_stamp.nanosec
+        bumped = self._felt(t)
         if self.policy is not None and msg.map_id == self.layout.map_id and t > self.after + 1e-6:
             brightness = np.asarray(msg.brightness, dtype=float)
             if brightness.shape == self.layout.x.shape:
                 brightness = self._as_seen(msg, brightness)
                 self.policy.show(msg.mode, msg.overlays)
+                if bumped:                          # touch, as quick_trial: before the frame's decision
+                    self.policy.touch()
                 command = self.policy.act(brightness, t)
         self.frames += 1
         if t > self.after + 1e-6:
