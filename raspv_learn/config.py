@@ -114,9 +114,12 @@ class LearnConfig:
         settings = {"temporal": False, **dict(self.spv), **extra}
         return spv_config(self.device, mode=mode, **settings)
 
+    def _values(self) -> dict:
+        return {**asdict(self), "data": self.data.values()}
+
     def key(self) -> str:
         """Hash of everything the trained weights depend on (not the observer's schedule)."""
-        values = {k: v for k, v in asdict(self).items() if k not in ("source", "observer", "name")}
+        values = {k: v for k, v in self._values().items() if k not in ("source", "observer", "name")}
         return hashlib.sha256(json.dumps(values, sort_keys=True, default=list).encode()).hexdigest()[:16]
 
     def observer_key(self) -> str:
@@ -124,13 +127,13 @@ class LearnConfig:
         device and twin, the targets, the decoder and its schedule, the seed and the validation
         split — not how the encoder is trained (a retrained encoder keeps the modes' rows)."""
         t = self.train
-        values = {k: v for k, v in asdict(self).items() if k in ("data", "device", "spv", "target", "decoder",
+        values = {k: v for k, v in self._values().items() if k in ("data", "device", "spv", "target", "decoder",
                                                                   "observer")}
         values["train"] = {"seed": t.seed, "val_fraction": t.val_fraction, "threads": t.threads}
         return hashlib.sha256(json.dumps(values, sort_keys=True, default=list).encode()).hexdigest()[:16]
 
     def as_dict(self) -> dict:
-        out = asdict(self)
+        out = self._values()
         out.pop("source")
         return json.loads(json.dumps(out, default=list))
 

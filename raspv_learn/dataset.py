@@ -64,6 +64,20 @@ class DataRecipe:
     min_free_ahead_m: float = 1.0
     shard_frames: int = 100
     seed: int = 0
+    # the depth camera's realism (raspv_sim.depth_sensor.DepthSensorConfig settings); None: the
+    # simulator's perfect depth. With it, ``depth_mm`` is what the sensor reads (noise, holes) and
+    # ``true_depth_mm`` the perfect depth the targets are drawn with
+    depth_sensor: Mapping[str, float] | None = None
+
+    def values(self) -> dict:
+        """The recipe as plain values (``depth_sensor`` left out when None: recipes from before it
+        keep their keys)."""
+        out = asdict(self)
+        if out["depth_sensor"] is None:
+            out.pop("depth_sensor")
+        else:
+            out["depth_sensor"] = dict(sorted(out["depth_sensor"].items()))
+        return out
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], where: str = "data") -> "DataRecipe":
@@ -97,6 +111,13 @@ class DataRecipe:
             problems.append(f"hfov_deg must be in (0, 170), got {self.hfov_deg}")
         if len(self.pitch_deg) != 2 or not -80 <= self.pitch_deg[0] <= self.pitch_deg[1] <= 80:
             problems.append(f"pitch_deg must be [low, high] within [-80, 80], got {list(self.pitch_deg)}")
+        if self.depth_sensor is not None:
+            from raspv_sim.depth_sensor import DepthSensorConfig
+
+            try:
+                DepthSensorConfig(**self.depth_sensor)
+            except (TypeError, ValueError) as exc:
+                problems.append(f"depth_sensor: {exc}")
         if problems:
             raise DataError(f"{where}: " + "; ".join(problems))
 
@@ -113,7 +134,7 @@ class DataRecipe:
         return [(k, min(size, n - k * size)) for k in range(-(-n // size))]
 
     def key(self) -> str:
-        return hashlib.sha256(json.dumps({"version": FORMAT_VERSION, **asdict(self)}, sort_keys=True).encode()).hexdigest()[:16]
+        return hashlib.sha256(json.dumps({"version": FORMAT_VERSION, **self.values()}, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def walker_class_lut(class_names: tuple[str, ...]) -> np.ndarray:
@@ -152,6 +173,11 @@ class WorldRenderer:
             raise DataError(f"world {world}: no free place {recipe.clearance_m} m from every object")
         self.lut = walker_class_lut(self.sim.classes)
         self.perception = ScenePerception()
+        self.sensor = None
+        if recipe.depth_sensor is not None:
+            from raspv_sim.depth_sensor import DepthSensorConfig
+
+            self.sensor = DepthSensorConfig(**recipe.depth_sensor)
 
     def close(self) -> None:
         self.sim.close()
@@ -166,7 +192,10 @@ class WorldRenderer:
         ok[inside] = self.free[rc[inside, 0], rc[inside, 1]]
         return float(d[np.argmin(ok)] - step) if not ok.all() else reach_m
 
-    def frame(self, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    def frame(self, rng: np.random.Generator, sensor=None) -> dict[str, np.ndarray]:
+        """One frame drawn with ``rng`` (pose, people); ``sensor`` (a
+        :class:`~raspv_sim.depth_sensor.DepthSensorModel` with its own generator, so the poses are
+        those of the perfect-depth recipe) degrades the depth when the recipe has a depth sensor."""
         from raspv_sim.avatar import head_quaternion
 
         r, sim = self.recipe, self.sim
@@ -184,19 +213,33 @@ class WorldRenderer:
         sim.set_head(head_quaternion(math.radians(rng.normal(0.0, r.roll_sd_deg)),
                                      math.radians(rng.uniform(*r.pitch_deg)),
                                      math.radians(rng.uniform(-r.head_yaw_deg, r.head_yaw_deg))))
-        f = sim.render()
-        depth = np.asarray(f.depth, np.float32)
+        T = sim.avatar.world_from_camera()
+        raw = sim.camera.render(T, body=True)               # as Simulation.render, keeping the bodies
+        body = np.clip(raw.body + 1, 0, len(sim.world.class_lut) - 1)
+        true_depth = np.asarray(raw.depth, np.float32)
+        depth = true_depth
+        if sensor is not None:
+            depth = sensor.apply(true_depth, raw.rgb, sim.world.specular_lut[body])
+        labels, intrinsics = sim.world.class_lut[body], sim.camera.intrinsics
         self.perception.reset()
-        result = self.perception.process(depth, f.intrinsics, f.world_from_camera)
+        result = self.perception.process(depth, intrinsics, T)
         s = result.structure
-        ok = np.isfinite(depth) & (depth > 0)
-        return {"rgb": f.rgb, "depth_mm": np.where(ok, np.rint(np.where(ok, depth, 0) * 1000), 0).astype(np.uint16),
-                "gt": self.lut[f.labels], "scene_labels": result.labels.astype(np.uint8),
-                "world_from_camera": f.world_from_camera.astype(np.float32),
+        out = {"depth_mm": to_mm(depth)}
+        if sensor is not None:
+            out["true_depth_mm"] = to_mm(true_depth)
+        return {**out, "rgb": raw.rgb,
+                "gt": self.lut[labels], "scene_labels": result.labels.astype(np.uint8),
+                "world_from_camera": np.asarray(T, np.float32),
                 "floor_found": np.bool_(s.floor_found), "floor_plane": np.asarray(s.floor_plane, np.float32),
                 "camera_to_floor": np.asarray(s.camera_to_floor, np.float32),
                 "manhattan_found": np.bool_(s.manhattan_found),
                 "manhattan_x": np.asarray(s.manhattan_x, np.float32), "manhattan_z": np.asarray(s.manhattan_z, np.float32)}
+
+
+def to_mm(depth: np.ndarray) -> np.ndarray:
+    """(H, W) float metres (NaN or <= 0: no reading) → uint16 mm (0: no reading)."""
+    ok = np.isfinite(depth) & (depth > 0)
+    return np.where(ok, np.rint(np.where(ok, depth, 0) * 1000), 0).astype(np.uint16)
 
 
 def shard_seed(recipe: DataRecipe, world: str, index: int) -> np.random.SeedSequence:
@@ -231,10 +274,17 @@ def render_dataset(recipe: DataRecipe, folder: str | Path, progress: bool = True
                     renderers.pop(other).close()
                 renderers[world] = WorldRenderer(world, recipe)
             bar.set_postfix_str(f"{world} shard {k}")
-            rng = np.random.default_rng(shard_seed(recipe, world, k))
+            seed = shard_seed(recipe, world, k)
+            rng = np.random.default_rng(seed)
+            sensor = None
+            if renderers[world].sensor is not None:
+                from raspv_sim.depth_sensor import DepthSensorModel
+
+                sensor = DepthSensorModel(renderers[world].sensor, recipe.camera.fx,
+                                          seed=int(np.random.SeedSequence([*seed.entropy, 1]).generate_state(1)[0]))
             frames = []
             for _ in range(n):
-                frames.append(renderers[world].frame(rng))
+                frames.append(renderers[world].frame(rng, sensor))
                 bar.update(1)
             _write_shard(shard_path(folder, world, k), {key: np.stack([f[key] for f in frames]) for key in frames[0]})
     finally:
@@ -258,7 +308,7 @@ def _write_shard(path: Path, arrays: dict[str, np.ndarray]) -> None:
 def _write_recipe(folder: Path, recipe: DataRecipe) -> None:
     import yaml
 
-    values = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(recipe).items()}
+    values = {k: list(v) if isinstance(v, tuple) else v for k, v in recipe.values().items()}
     text = ("# written by raspv learn dataset: what this dataset was rendered from\n"
             + yaml.safe_dump({"format": FORMAT_VERSION, "key": recipe.key(), "recipe": values}, sort_keys=False))
     (folder / "recipe.yaml").write_text(text)
@@ -289,8 +339,15 @@ class WorldFrames:
         return len(self.arrays["rgb"])
 
     def depth(self, i: int) -> np.ndarray:
-        """(H, W) float32 metres, NaN without a reading."""
+        """(H, W) float32 metres, NaN without a reading: what the depth camera reads."""
         d = self.arrays["depth_mm"][i].astype(np.float32) / 1000.0
+        d[d == 0] = np.nan
+        return d
+
+    def true_depth(self, i: int) -> np.ndarray:
+        """(H, W) float32 metres of the simulator's perfect depth (the read depth when the recipe
+        had no depth sensor): what the targets' range is measured on."""
+        d = self.arrays.get("true_depth_mm", self.arrays["depth_mm"])[i].astype(np.float32) / 1000.0
         d[d == 0] = np.nan
         return d
 

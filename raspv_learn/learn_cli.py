@@ -32,9 +32,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        ("compare", "the computational observer: every hand-designed mode and the learned encoder "
                                    "scored on the held-out worlds")):
         p = sub.add_parser(name, help=text, description=text)
-        p.add_argument("config", help="training configuration: YAML file or shipped name (optimist, argus_iii)")
+        p.add_argument("config", nargs="?" if name == "compare" else None,
+                       help="training configuration: YAML file or shipped name (optimist, argus_iii)"
+                            + ("; with --evaluation: one of its configurations (default: all)" if name == "compare"
+                               else ""))
         p.add_argument("--data", help="dataset folder (default data/learn/<recipe key>)")
         p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.add_argument("--evaluation", metavar="NAME",
+                       help="a pre-registered evaluation (raspv_learn/evaluations/NAME.yaml): its test worlds, "
+                            "frames and depth; train records its sha256; compare scores it (docs/learn.md)")
+        if name in ("dataset", "compare"):
+            p.add_argument("--depth", help="with --evaluation: the depth condition (default: the evaluation's "
+                                           "primary one; compare scores every condition unless given)")
+        if name == "train":
+            p.add_argument("--seed", type=int, help="with --evaluation: the training seed (one of its seeds)")
         if name in ("train", "compare"):
             p.add_argument("--out", help="run folder (default runs/learn/<name>)")
         if name == "train":
@@ -43,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="copy the encoder, weights and scores into raspv_learn/models/ (what the learned "
                                 "mode loads by default)")
         if name == "compare":
+            p.add_argument("--rescore", action="store_true",
+                           help="with --evaluation: score a test world against a model trained after that world "
+                                "was scored with another model of the same configuration (the table says so)")
             p.add_argument("--modes", nargs="+", default=list(COMPARE_MODES), help="hand-designed modes to score")
             p.add_argument("--encoder", help="weights .pt of the learned encoder (default: --out's, else the "
                                              "shipped one)")
@@ -87,12 +101,49 @@ def run(args: argparse.Namespace) -> int:
 
     if args.learn in ("patient-data", "patient-train"):
         return _patient(args)
+    from raspv_learn.evaluation import EvaluationError
+
     try:
+        if getattr(args, "evaluation", None):
+            return _evaluation_command(args)
+        if args.config is None:
+            print("raspv learn: compare needs CONFIG (or --evaluation NAME)", file=sys.stderr)
+            return 2
+        if getattr(args, "seed", None) is not None or getattr(args, "depth", None) or getattr(args, "rescore", False):
+            print("raspv learn: --seed, --depth and --rescore go with --evaluation NAME", file=sys.stderr)
+            return 2
         config = load_config(args.config)
         return {"dataset": _dataset, "train": _train, "compare": _compare}[args.learn](args, config)
-    except (ConfigError, DataError) as exc:
+    except (ConfigError, DataError, EvaluationError) as exc:
         print(f"raspv learn: {exc}", file=sys.stderr)
         return 2
+
+
+def _evaluation_command(args) -> int:
+    """dataset / train / compare for a pre-registered evaluation."""
+    from raspv_learn.config import load_config
+    from raspv_learn.evaluation import configuration_for, load_evaluation, run_folder
+
+    ev = load_evaluation(args.evaluation)
+    if args.learn == "compare":
+        from raspv_learn.scoring import compare_evaluation
+
+        if args.data or args.out:
+            print("raspv learn: compare --evaluation reads data/learn/<recipe key> and runs/learn/<evaluation>/ "
+                  "(no --data or --out)", file=sys.stderr)
+            return 2
+        return compare_evaluation(args, ev)
+    base = load_config(args.config)
+    if args.learn == "dataset":
+        config = configuration_for(base, ev, ev.shipped_seed, args.depth)
+        return _dataset(args, config)
+    if args.seed is None:
+        print(f"raspv learn: --evaluation {ev.name} needs --seed (one of {list(ev.training_seeds)})", file=sys.stderr)
+        return 2
+    config = configuration_for(base, ev, args.seed)
+    if not args.out:
+        args.out = str(run_folder(ev, config.name, args.seed))
+    return _train(args, config, evaluation=ev)
 
 
 def _patient(args) -> int:
@@ -152,7 +203,7 @@ def _twin(config):
     return PhospheneTwin.from_config(config.spv_config())
 
 
-def _train(args, config) -> int:
+def _train(args, config, evaluation=None) -> int:
     import torch
 
     from raspv_learn.export import export_encoder
@@ -169,14 +220,19 @@ def _train(args, config) -> int:
     except TrainError as exc:
         print(f"raspv learn: {exc}", file=sys.stderr)
         return 2
+    from datetime import datetime, timezone
+
+    trained_at = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    record = {"evaluation": evaluation.record(), "seed": config.train.seed} if evaluation is not None else {}
     torch.save({"encoder": model.encoder.state_dict(), "decoder": model.decoder.state_dict(),
-                "config": config.as_dict(), "config_key": config.key()}, out / "weights.pt")
+                "config": config.as_dict(), "config_key": config.key(), "trained_at": trained_at, **record},
+               out / "weights.pt")
     diff = export_encoder(model.encoder, config, twin.num_levels, out / "encoder.onnx", data.test.inputs[0])
     summary = {"config": config.name, "config_key": config.key(), "recipe_key": config.data.key(),
                "phosphenes": data.count, "best_epoch": result.best_epoch, "val": result.val, "test": result.test,
                "train_minutes": result.seconds / 60.0, "train_cpu_minutes": result.cpu_seconds / 60.0,
                "prepare_minutes": prep_s / 60.0, "onnx_max_diff": diff,
-               "threads": config.train.threads}
+               "threads": config.train.threads, "trained_at": trained_at, **record}
     (out / "result.json").write_text(json.dumps(summary, indent=1))
     print(f"{config.name}: {data.count} phosphenes, best epoch {result.best_epoch}/{config.train.epochs}; "
           f"held-out ({', '.join(config.data.test_worlds)}) obstacle IoU {result.test['iou_obstacle']:.3f}, "

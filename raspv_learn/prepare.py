@@ -7,7 +7,9 @@ phosphenes' camera pixels with :class:`raspv_spv.sampling.Sampling` (what every 
 samples at), the levels of each hand-designed mode with the live
 :class:`~raspv_spv.simulator.PhospheneSimulator` and the frame's scene perception (as the
 ``scene`` node would publish it), and the targets: per cell of ``stride_px`` phosphene-image
-pixels, the ground-truth walker class of the cell centre's ray within ``range_m``.
+pixels, the ground-truth walker class of the cell centre's ray within ``range_m`` (of the
+simulator's perfect depth: with a depth-sensor recipe the inputs and the modes see the sensor's
+depth, the targets stay the truth).
 """
 from __future__ import annotations
 
@@ -99,10 +101,11 @@ def _world_part(config: LearnConfig, frames: WorldFrames, camera, sim: Phosphene
     mode_sims = {m: sim.variant(m, ()) for m in modes}         # fresh mode state (Chess-Floor's axes) per world
     levels = {m: np.empty((n, sim.count), np.uint8) for m in modes}
     for i in range(n):
-        depth = frames.depth(i)
+        depth, true_depth = frames.depth(i), frames.true_depth(i)       # read by the camera; perfect
         inputs[i] = encoder_inputs(a["rgb"][i], depth, a["scene_labels"][i], size, config.encoder.channels)
-        targets.append(target_map(a["gt"][i], depth, sim, camera, config.target.stride_px, config.target.range_m))
-        codes[i] = phosphene_codes(a["gt"][i], depth, sampling, config.target.range_m)
+        targets.append(target_map(a["gt"][i], true_depth, sim, camera, config.target.stride_px,
+                                  config.target.range_m))
+        codes[i] = phosphene_codes(a["gt"][i], true_depth, sampling, config.target.range_m)
         if modes:
             frame = FrameInputs(color=a["rgb"][i], depth=depth, camera=camera,
                                 camera_pose=a["world_from_camera"][i].astype(np.float64), scene=frames.scene(i),
@@ -127,6 +130,24 @@ def prepare(config: LearnConfig, data_dir, modes: tuple[str, ...] = (), progress
     """Encoder inputs, targets and the ``modes``' levels of every frame of the dataset in
     ``data_dir`` (which must hold ``config.data``); the training worlds' frames split into
     train and val by ``config.train.seed``."""
+    return split_by_seed(prepare_frames(config, data_dir, modes, progress), config.train.seed,
+                         config.train.val_fraction)
+
+
+@dataclass
+class PreparedFrames:
+    """Every frame prepared, before the training worlds' frames are split into train and val."""
+
+    train_all: Split
+    test: Split
+    grid: np.ndarray
+    inside: np.ndarray
+    count: int
+
+
+def prepare_frames(config: LearnConfig, data_dir, modes: tuple[str, ...] = (), progress: bool = True
+                   ) -> PreparedFrames:
+    """:func:`prepare` without the split (it does not depend on the training seed)."""
     from raspv_learn.dataset import DataError
 
     recipe = read_recipe(data_dir)
@@ -143,9 +164,14 @@ def prepare(config: LearnConfig, data_dir, modes: tuple[str, ...] = (), progress
             for w in worlds:
                 bar.set_postfix_str(w)
                 parts[split].append(_world_part(config, load_world(data_dir, recipe, w), camera, sim, modes, bar))
-    train_all, test = _concat(parts["train"]), _concat(parts["test"])
-    order = np.random.default_rng(config.train.seed).permutation(len(train_all))
-    n_val = int(round(config.train.val_fraction * len(train_all)))
     grid, inside = phosphene_grid(sim, camera)
-    return Prepared(_take(train_all, np.sort(order[n_val:])), _take(train_all, np.sort(order[:n_val])), test,
-                    grid, inside, sim.count)
+    return PreparedFrames(_concat(parts["train"]), _concat(parts["test"]), grid, inside, sim.count)
+
+
+def split_by_seed(frames: PreparedFrames, seed: int, val_fraction: float) -> Prepared:
+    """The training worlds' frames split into train and val by ``seed``."""
+    train_all = frames.train_all
+    order = np.random.default_rng(seed).permutation(len(train_all))
+    n_val = int(round(val_fraction * len(train_all)))
+    return Prepared(_take(train_all, np.sort(order[n_val:])), _take(train_all, np.sort(order[:n_val])), frames.test,
+                    frames.grid, frames.inside, frames.count)

@@ -43,7 +43,7 @@ from tqdm import tqdm
 
 from raspv_learn.config import LearnConfig, ObserverSpec
 from raspv_learn.metrics import Confusion, class_weights
-from raspv_learn.networks import Decoder, Encoder, quantise_levels, sample_at
+from raspv_learn.networks import NUM_CLASSES, Decoder, Encoder, quantise_levels, sample_at
 from raspv_learn.prepare import Prepared, Split
 from raspv_learn.twin import PhospheneTwin
 
@@ -105,6 +105,22 @@ def _evaluate(predict: Callable[[np.ndarray], torch.Tensor], split: Split, batch
     return conf.iou()
 
 
+def confusions_per_frame(predict: Callable[[np.ndarray], torch.Tensor], split: Split, batch: int) -> np.ndarray:
+    """(n, 3, 3) int32 confusion matrix of each frame of ``split`` (true class × predicted class
+    over the scored cells): what the evaluation's bootstrap pools over resampled frames."""
+    out = np.zeros((len(split), NUM_CLASSES, NUM_CLASSES), np.int32)
+    with torch.no_grad():
+        for i in range(0, len(split), batch):
+            idx = np.arange(i, min(len(split), i + batch))
+            pred = predict(idx).argmax(1).reshape(len(idx), -1).numpy()
+            true = split.targets[idx].reshape(len(idx), -1).astype(np.int64) - 1
+            for j in range(len(idx)):
+                keep = true[j] >= 0
+                out[i + j] = np.bincount(true[j][keep] * NUM_CLASSES + pred[j][keep],
+                                         minlength=NUM_CLASSES * NUM_CLASSES).reshape(NUM_CLASSES, NUM_CLASSES)
+    return out
+
+
 @dataclass
 class RunResult:
     """Validation and held-out scores of the chosen epoch, and the wall time."""
@@ -114,6 +130,7 @@ class RunResult:
     test: dict
     seconds: float                  # wall time of the epochs
     cpu_seconds: float = 0.0        # CPU time of the epochs (threads summed): the wall time on idle cores
+    test_confusions: np.ndarray | None = None    # (n, 3, 3) per held-out frame (train_observer per_frame=True)
 
 
 def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, out_dir: str | Path,
@@ -221,7 +238,8 @@ def ground_truth_levels(split: Split, num_levels: int) -> np.ndarray:
 
 
 def train_observer(levels: dict[str, np.ndarray], data: Prepared, twin: PhospheneTwin, stride: int, features: int,
-                   spec: ObserverSpec, seed: int, threads: int, name: str = "", progress: bool = True) -> RunResult:
+                   spec: ObserverSpec, seed: int, threads: int, name: str = "", progress: bool = True,
+                   per_frame: bool = False) -> RunResult:
     """A fresh decoder trained on the phosphene images of fixed ``levels`` (``train``, ``val``,
     ``test``: (n, N) uint8 each); the held-out scores of its best validation epoch."""
     set_threads(threads)
@@ -261,4 +279,5 @@ def train_observer(levels: dict[str, np.ndarray], data: Prepared, twin: Phosphen
     decoder.load_state_dict(best["state"])
     decoder.eval()
     test = _evaluate(lambda i: decoder(images("test", i)), data.test, 64)
-    return RunResult(best["epoch"], history[best["epoch"] - 1], test, elapsed, cpu)
+    frames = confusions_per_frame(lambda i: decoder(images("test", i)), data.test, 64) if per_frame else None
+    return RunResult(best["epoch"], history[best["epoch"] - 1], test, elapsed, cpu, frames)
