@@ -157,3 +157,17 @@ def test_the_table_says_when_a_world_was_rescored():
     text = render_table(table)
     assert "RESCORED" in text and "| learned | 70.0 | 70.0 [60.0, 80.0] |" in text and "NOT met" in text
     assert "RESCORED" not in render_table({**table, "rescored": False})
+
+
+def test_the_shipped_ledger_knows_the_office_is_spent():
+    """The office history, recorded from git: a new Argus III or Optimist model is refused on the
+    office; the 20-epoch Argus III entry is marked as the rescore it was."""
+    entries = read_ledger()
+    office = [e for e in entries if e["world"] == "office"]
+    assert {e["configuration"] for e in office} == {"argus_iii", "optimist"}
+    assert [e["rescore"] for e in office if e["configuration"] == "argus_iii"] == [False, True]
+    now = "2026-12-06T22:00:00+00:00"
+    for config in ("argus_iii", "optimist"):
+        assert earlier_scorings(entries, "office", config, "f" * 64, now)
+    shipped = hashlib.sha256((Path(__file__).parents[2] / "raspv_learn/models/argus_iii.pt").read_bytes()).hexdigest()
+    assert shipped in {e["model"] for e in office}
