@@ -23,13 +23,15 @@ from raspv_bringup.graph import Graph, GraphError, graph_from_doc, load_graph, r
 from raspv_bringup.registry import schema_for
 from raspv_common import shipped
 from raspv_common.text_files import read_text_file
+from raspv_experiments.goal_knowledge import KINDS, GoalKnowledge
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 EXPERIMENTS_DIR = shipped.EXPERIMENTS_DIR    # the checkout's experiments/, or the installed wheel's copy
 ORDERS = ("fixed", "random", "latin_square")
 BLOCKS = ("condition", "none")
 WITHIN = ("fixed", "random")
-_TOP_KEYS = {"name", "description", "graph", "conditions", "tasks", "design", "record"}
+_TOP_KEYS = {"name", "description", "graph", "conditions", "tasks", "design", "record", "goal_knowledge"}
+_GOAL_KNOWLEDGE_KEYS = {"told", "direction_noise_deg"}
 _TASK_KEYS = {"world", "start", "goal", "time_limit", "instructions"}
 _DESIGN_KEYS = {"repetitions", "practice", "blocks", "order", "within_block", "seed", "break_between_blocks"}
 _RECORD_KEYS = {"bag", "bag_topics", "trajectory_rate"}
@@ -104,6 +106,7 @@ class Protocol:
     tasks: list[Task]
     design: Design
     record: RecordSpec
+    goal_knowledge: GoalKnowledge = field(default_factory=GoalKnowledge)   # what virtual patients are told
     text: str = ""                       # the file as written (copied into each session)
     controlled: dict[str, dict[str, Any]] = field(default_factory=dict)   # node → {param: base value}
     factors: dict[str, list[str]] = field(default_factory=dict)   # sweeps: factor → level labels, in order
@@ -245,9 +248,10 @@ def parse_protocol(doc: Any, path: Path, text: str = "") -> Protocol:
     tasks = _tasks(doc.get("tasks"), path, ck)
     design = _design(doc.get("design", {}), ck)
     record = _record(doc.get("record", {}), ck)
+    knowledge = _goal_knowledge(doc.get("goal_knowledge", {}), ck)
     if ck.errors:
         raise ProtocolError(ck.errors)
-    proto = Protocol(path, name, description, graph, conditions, tasks, design, record, text)
+    proto = Protocol(path, name, description, graph, conditions, tasks, design, record, knowledge, text)
     proto.controlled = _controlled(proto)
     return proto
 
@@ -428,6 +432,17 @@ def _record(value: Any, ck: _Checker) -> RecordSpec:
         topics = list(DEFAULT_BAG_TOPICS)
     return RecordSpec(bag=_bool(value.get("bag", False), "record.bag", ck), bag_topics=tuple(topics),
                       trajectory_rate=ck.number(value.get("trajectory_rate", 10.0), "record.trajectory_rate", 0.5, 100))
+
+
+def _goal_knowledge(value: Any, ck: _Checker) -> GoalKnowledge:
+    value = ck.mapping(value or {}, "goal_knowledge", "{told: direction, direction_noise_deg: 30}")
+    ck.keys(value, "goal_knowledge", _GOAL_KNOWLEDGE_KEYS)
+    told = value.get("told", "exact")
+    if told not in KINDS:
+        ck.fail("goal_knowledge.told", f"expected one of {', '.join(KINDS)}, got {told!r}")
+        told = "exact"
+    return GoalKnowledge(told, ck.number(value.get("direction_noise_deg", 30.0), "goal_knowledge.direction_noise_deg",
+                                         0.0, 180.0))
 
 
 def _controlled(proto: Protocol) -> dict[str, dict[str, Any]]:

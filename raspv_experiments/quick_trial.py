@@ -33,14 +33,17 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
                 spv: dict[str, Any], policy: str | Callable[..., Any] = "navigate", config: PolicyConfig | None = None,
                 rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5,
                 planner: dict[str, Any] | None = None, policy_kw: dict[str, Any] | None = None,
-                on_frame: Callable[[Any], None] | None = None, other_representation: bool = False) -> QuickResult:
+                on_frame: Callable[[Any], None] | None = None, other_representation: bool = False,
+                goal_knowledge=None) -> QuickResult:
     """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
     ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``.
     ``policy`` is a policy name or a callable (layout, config, goal=…) → Policy; ``policy_kw`` go to its constructor (e.g. ``model`` of ``learned``); ``on_frame``
     gets the simulation before each decision (demonstrations: the expert's ground truth). A
     ``learned`` patient shown another representation than it was trained on is refused
     (:class:`~raspv_experiments.learned_policy.LearnedModelError`, one line naming both) unless
-    ``other_representation``."""
+    ``other_representation``. ``goal_knowledge`` (a protocol's
+    :class:`~raspv_experiments.goal_knowledge.GoalKnowledge`; None: exact) is what the patient is
+    told of the goal, its error drawn from ``config.seed`` as the graph's runner draws it."""
     from raspv_bringup.registry import schema_for
     from raspv_sim.avatar import head_quaternion
     from raspv_sim.simulator import SimConfig, Simulation
@@ -63,6 +66,10 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     x0, y0, yaw = start
     dx, dy = goal[0] - x0, goal[1] - y0
     told = (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy)
+    if goal_knowledge is not None:
+        from raspv_experiments.goal_knowledge import told_goal
+
+        told = told_goal(told, goal_knowledge, config.seed)
     build = policy if callable(policy) else (lambda *a, **kw: make_policy(policy, *a, **kw))
     agent = build(layout, config, goal=told, **(policy_kw or {}))
     agent.show(params["mode"], params["overlays"])

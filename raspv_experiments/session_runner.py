@@ -33,6 +33,7 @@ from raspv_bringup.supervisor import Supervisor, _die_with_parent
 from raspv_common.shown_share import ShownFrame, shown_share
 from raspv_experiments.design import PlannedTrial, plan_session, subject_number
 from raspv_experiments.gaze_metrics import trial_gaze_metrics
+from raspv_experiments.goal_knowledge import told_goal
 from raspv_experiments.metrics import trajectory_record, trial_metrics
 from raspv_experiments.protocol import Protocol, Task, uses_gaze
 from raspv_experiments.runner_node import GraphClient
@@ -377,9 +378,11 @@ class SessionRunner:
                 "text": task.instructions or f"Reach the goal ({task.goal.label})."}
         if self.options.scripted:      # what the subject is told, and the frames of this trial come after
             dx, dy = task.goal.x - task.start_x, task.goal.y - task.start_y
-            info.update(goal_from_start=[round(math.cos(yaw) * dx + math.sin(yaw) * dy, 4),
-                                         round(-math.sin(yaw) * dx + math.cos(yaw) * dy, 4)],
-                        after=self.client.state()[0] or 0.0)
+            told = told_goal((math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy),
+                             self.protocol.goal_knowledge, self.number * 100_003 + trial.index)
+            if told is not None:       # goal_knowledge none: nothing said (the subject explores)
+                info["goal_from_start"] = [round(told[0], 4), round(told[1], 4)]
+            info["after"] = self.client.state()[0] or 0.0
         if not self._wait_start(info):
             return "quit"
         self.client.take_frames()
@@ -457,6 +460,8 @@ class SessionRunner:
             "time_limit_s": task.time_limit, "params": params, "run_dir": str(run_dir),
             "sim_start_s": round(start_t, 4), "sim_end_s": round(end_t, 4), "finished": now_iso(),
             "policy": self.options.policy}
+        if self.options.scripted and self.protocol.goal_knowledge.told != "exact":
+            record["goal_knowledge"] = self.protocol.goal_knowledge.told     # what the virtual patient was told
         if self.options.other_representation and self.options.policy == "learned":
             record["other_representation"] = True        # run outside its training representation, as told
         factors = self.protocol.condition(trial.condition).factors
