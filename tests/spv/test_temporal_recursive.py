@@ -33,6 +33,8 @@ def frame_times(kind: str) -> np.ndarray:
         t = np.arange(1.0, T_MS - 1, 20.0) + 3.0
     elif kind == "90 Hz":
         t = np.arange(1.0, T_MS - 1, 1000 / 90)
+    elif kind == "every 1/4 ms":                  # inside every pulse's response window too
+        t = np.arange(1.0, T_MS - 1, 0.25)
     else:
         rng = np.random.default_rng(3)
         t = np.cumsum(rng.uniform(5.0, 25.0, 60)) - 4.0
@@ -70,7 +72,7 @@ def breakpoints(cfg, ticks, on):
 
 
 @pytest.mark.parametrize("model_name", ["horsager2009", "nanduri2012"])
-@pytest.mark.parametrize("kind", ["50 Hz", "90 Hz", "jittered"])
+@pytest.mark.parametrize("kind", ["50 Hz", "90 Hz", "jittered", "every 1/4 ms"])
 def test_recursive_model_is_the_continuous_model_at_any_frame_time(model_name, kind):
     frames = frame_times(kind)
     cfg, ours, ticks, on = run_recursive(model_name, frames)
