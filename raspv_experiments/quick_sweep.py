@@ -134,7 +134,7 @@ def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
             res = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
                               (task.goal.x, task.goal.y, task.goal.radius), task.time_limit, spv=spv,
                               policy=sweep.policy, config=config, rate=rate, size=size,
-                              goal_knowledge=sweep.protocol.goal_knowledge,
+                              goal_knowledge=sweep.protocol.goal_knowledge, sim_params=sim,
                               policy_kw={"model": sweep.subject_params["model"]}
                               if sweep.policy == "learned" and sweep.subject_params.get("model") else None)
             length = float(np.hypot(*np.diff(np.asarray(res.path), axis=0).T).sum()) if len(res.path) > 1 else 0.0

@@ -34,7 +34,7 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
                 rate: float = 10.0, size: tuple[int, int] = (160, 120), replan_s: float = 0.5,
                 planner: dict[str, Any] | None = None, policy_kw: dict[str, Any] | None = None,
                 on_frame: Callable[[Any], None] | None = None, other_representation: bool = False,
-                goal_knowledge=None) -> QuickResult:
+                goal_knowledge=None, sim_params: dict[str, Any] | None = None) -> QuickResult:
     """Walk from ``start`` (x, y [m], yaw [rad]) to the region ``goal`` (x, y, radius [m]) within
     ``time_limit`` s of sim time, seeing the phosphenes of the spv node parameters ``spv``.
     ``policy`` is a policy name or a callable (layout, config, goal=…) → Policy; ``policy_kw`` go to its constructor (e.g. ``model`` of ``learned``); ``on_frame``
@@ -43,7 +43,9 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     (:class:`~raspv_experiments.learned_policy.LearnedModelError`, one line naming both) unless
     ``other_representation``. ``goal_knowledge`` (a protocol's
     :class:`~raspv_experiments.goal_knowledge.GoalKnowledge`; None: exact) is what the patient is
-    told of the goal, its error drawn from ``config.seed`` as the graph's runner draws it."""
+    told of the goal, its error drawn from ``config.seed`` as the graph's runner draws it.
+    ``sim_params`` (the sim node's parameters of the protocol's graph): with ``depth_noise`` the
+    depth is degraded like a real sensor's (noise, quantisation, holes), as the sim node does."""
     from raspv_bringup.registry import schema_for
     from raspv_sim.avatar import head_quaternion
     from raspv_sim.simulator import SimConfig, Simulation
@@ -52,6 +54,7 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
     from raspv_spv.spv_node_rebuild import build_simulator
 
     params = {**schema_for("spv").defaults(), **spv}
+    sim_p = {**schema_for("sim").defaults(), **(sim_params or {})}
     if policy == "learned" and not other_representation:
         from raspv_experiments.learned_policy import LearnedModelError, representation_mismatch
 
@@ -87,7 +90,11 @@ def quick_trial(world: str, start: tuple[float, float, float], goal: tuple[float
         assistant = NavigationAssistant(structure, goal[:2] if target is None else target, assistant_config(p))
     extras: dict[str, Any] = {}
     planned = -float("inf")
-    with Simulation(world, SimConfig(width=size[0], height=size[1], renderer="tiny")) as sim:
+    from raspv_sim.depth_sensor import sensor_config_from_params
+
+    sim_config = SimConfig(width=size[0], height=size[1], renderer="tiny",
+                           depth_sensor=sensor_config_from_params(sim_p), seed=int(sim_p["seed"]))
+    with Simulation(world, sim_config) as sim:
         sim.start_trial(x0, y0, yaw, (GoalSpec("goal", goal[:2], goal[2]),))
         sim.set_head(head_quaternion(0.0, math.radians(config.head_pitch_deg), 0.0))
         t0, command, path = sim.t, (0.0, 0.0), []

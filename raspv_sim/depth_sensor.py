@@ -42,6 +42,15 @@ class DepthSensorConfig:
                 raise ValueError(f"depth sensor '{name}' must be in [0, 1], got {getattr(self, name)}")
 
 
+def sensor_config_from_params(p: dict) -> DepthSensorConfig | None:
+    """The sim node's ``depth_*`` parameters (``depth_noise`` off: None, noise-free depth)."""
+    if not p["depth_noise"]:
+        return None
+    return DepthSensorConfig(noise_at_1m=p["depth_noise_at_1m"], subpixel=p["depth_subpixel"],
+                             edge_jump=p["depth_edge_jump"], dark_dropout=p["depth_dark_dropout"],
+                             specular_dropout=p["depth_specular_dropout"], max_range=p["depth_max_range"])
+
+
 class DepthSensorModel:
     """Applies :class:`DepthSensorConfig` to perfect depth images of a camera with focal ``fx`` px."""
 

@@ -41,7 +41,7 @@ from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.tf_messages import StaticTfBroadcaster, TfBroadcaster
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
-from raspv_sim.depth_sensor import DepthSensorConfig, DepthSensorModel
+from raspv_sim.depth_sensor import DepthSensorModel, sensor_config_from_params
 from raspv_sim.lockstep import Lockstep
 from raspv_sim.sim_node_gaze import SimGazeLog
 from raspv_sim.sim_params import PARAMS
@@ -60,12 +60,7 @@ def _import_run_plotting() -> None:
     import raspv_sim.trajectory_plot  # noqa: F401
 
 
-def depth_sensor_config(p: dict) -> DepthSensorConfig | None:
-    if not p["depth_noise"]:
-        return None
-    return DepthSensorConfig(noise_at_1m=p["depth_noise_at_1m"], subpixel=p["depth_subpixel"],
-                             edge_jump=p["depth_edge_jump"], dark_dropout=p["depth_dark_dropout"],
-                             specular_dropout=p["depth_specular_dropout"], max_range=p["depth_max_range"])
+depth_sensor_config = sensor_config_from_params
 
 
 def sim_config(p: dict) -> SimConfig:
