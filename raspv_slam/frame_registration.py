@@ -35,6 +35,7 @@ from raspv_slam.se3 import from_rvec_tvec, inverse, motion_size
 
 DEPTH_NOISE_Z2 = 1.42e-3      # σ_z / z² of structured-light depth [1/m] (Khoshelham & Elberink 2012)
 DEPTH_SLACK = 0.01            # depth-to-colour registration and interpolation [m]
+MIN_DENSE_FITNESS = 0.05      # share of the source's depth pixels the dense registration matched
 
 
 @dataclass
@@ -124,8 +125,10 @@ class FrameRegistrar:
         for n, start in enumerate(starts):
             if n == 1 and best is not None:
                 break                              # the PnP start verified: no second start
-            refined, _ = self.dense.register(source.dense, target.dense, start,
-                                             geometric_only=source.small_rgb is None or target.small_rgb is None)
+            refined, fitness = self.dense.register(source.dense, target.dense, start,
+                                                   geometric_only=source.small_rgb is None or target.small_rgb is None)
+            if fitness < MIN_DENSE_FITNESS:
+                continue                           # no correspondences: Open3D hands the start back
             dt, dr = motion_size(inverse(start) @ refined)
             if dt > c.max_frame_translation or dr > c.max_frame_rotation_deg:
                 continue                           # the registration ran away from its start

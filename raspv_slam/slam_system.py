@@ -156,20 +156,24 @@ class SlamSystem:
         c = self.config
         dt, dr = motion_size(self.ref_from_camera)
         if (dt <= c.keyframe_translation and dr <= c.keyframe_rotation_deg
-                and self.map.view_overlap(self.ref, self.ref_from_camera) >= c.keyframe_overlap):
+                and self._view_overlap(self.ref, self.ref_from_camera) >= c.keyframe_overlap):
             return
         slam_from_camera = self.map.pose(self.ref) @ self.ref_from_camera
         for kf_id in self.map.nearby(slam_from_camera, c.reuse_radius, c.reuse_angle_deg, exclude={self.ref})[:3]:
             kf_from_camera = inverse(self.map.pose(kf_id)) @ slam_from_camera
-            if self.map.view_overlap(kf_id, kf_from_camera) < c.keyframe_overlap:
+            if self._view_overlap(kf_id, kf_from_camera) < c.keyframe_overlap:
                 continue
             reg = self.registrar.register(frame, self._keyframe(kf_id), predicted_target_from_source=kf_from_camera)
-            if reg.ok and self.map.view_overlap(kf_id, reg.target_from_source) >= c.keyframe_overlap:
+            if reg.ok and self._view_overlap(kf_id, reg.target_from_source) >= c.keyframe_overlap:
                 self.ref, self.ref_from_camera = kf_id, reg.target_from_source
                 return
         # the sharpest recent frame tracked against the same reference becomes the keyframe
         usable = [(f.sharpness, i) for i, (f, ref, _) in enumerate(self._recent)
                   if ref == self.ref and f.has_depth and len(f.features.with_depth) >= c.min_inliers]
+        if not usable:
+            # a view without features (a blank wall) tracked densely: a keyframe of its depth and
+            # colour, so the reference follows the camera instead of going stale as it turns
+            usable = [(f.sharpness, i) for i, (f, ref, _) in enumerate(self._recent) if ref == self.ref and f.has_depth]
         if not usable:
             return
         best, ref, ref_from_best = self._recent[max(usable)[1]]
@@ -177,6 +181,20 @@ class SlamSystem:
         self.ref = self._add_keyframe(best, slam_from_best, ref, ref_from_best)
         self.ref_from_camera = inverse(slam_from_best) @ slam_from_camera
         self._recent.clear()
+
+    def _view_overlap(self, kf_id: int, kf_from_camera: np.ndarray) -> float:
+        """Share of a keyframe's view a camera at ``kf_from_camera`` still sees: its 3-D feature
+        points, or for a keyframe with too few of them (a blank wall) its depth probe points."""
+        if len(self.map.keyframes[kf_id].features.with_depth) >= self.config.min_inliers:
+            return self.map.view_overlap(kf_id, kf_from_camera)
+        p = self._keyframe(kf_id).probe_points(self.preparer.small_intrinsics)
+        if not len(p):
+            return 0.0
+        camera_from_kf = inverse(kf_from_camera)
+        q = p @ camera_from_kf[:3, :3].T + camera_from_kf[:3, 3]
+        K = self.preparer.small_intrinsics
+        u, v, z = K.project(q)
+        return float(((z > self.config.min_depth) & K.contains(u, v)).mean())
 
     def _relocalise(self, frame: Frame) -> tuple[TrackingState, int]:
         c = self.config
