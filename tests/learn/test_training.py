@@ -150,3 +150,28 @@ def test_a_missing_dataset_names_the_command(tmp_path, capsys):
     path.write_text(yaml.safe_dump(TINY))
     assert raspv(["learn", "train", str(path), "--data", str(tmp_path / "nothing"), "--quiet"]) == 2
     assert "raspv learn dataset" in capsys.readouterr().err
+
+
+def test_realistic_depth_dataset_keeps_the_frames_and_the_true_depth(tiny, tmp_path):
+    """A recipe with the sim's depth sensor: the same frames as the perfect-depth recipe (the
+    sensor has its own generator), the sensor's depth with holes and noise, the perfect depth kept
+    for the targets."""
+    config, _, perfect_dir = tiny
+    sensor = {"noise_at_1m": 0.0014, "baseline": 0.075, "subpixel": 8.0, "edge_jump": 0.04, "edge_width": 1,
+              "dark_level": 25, "dark_dropout": 0.6, "specular_dropout": 0.7, "max_range": 6.0}
+    real = config_from_mapping({**TINY, "data": {**TINY["data"], "frames_per_world": 3, "test_frames_per_world": 1,
+                                                 "depth_sensor": sensor}}, "real")
+    assert real.data.key() != config.data.key() and config.key() == load_config(tiny[1]).key()
+    render_dataset(real.data, tmp_path, progress=False)
+    assert read_recipe(tmp_path) == real.data
+    ours, perfect = load_world(tmp_path, real.data, "stairs"), load_world(perfect_dir, config.data, "stairs")
+    np.testing.assert_array_equal(ours.arrays["rgb"], perfect.arrays["rgb"][:3])
+    np.testing.assert_array_equal(ours.arrays["true_depth_mm"], perfect.arrays["depth_mm"][:3])
+    read, true = ours.arrays["depth_mm"], ours.arrays["true_depth_mm"]
+    holes = (read == 0) & (true > 0)
+    assert 0.001 < holes.mean() < 0.5                                   # edges, dark and shiny surfaces
+    both = (read > 0) & (true > 0)
+    assert (read[both] != true[both]).mean() > 0.3                      # noise and quantisation
+    assert np.abs(read[both].astype(np.int64) - true[both]).mean() < 100   # mm: noise, not garbage
+    for i in range(3):
+        np.testing.assert_array_equal(ours.true_depth(i), perfect.depth(i))
