@@ -171,3 +171,18 @@ def test_the_shipped_ledger_knows_the_office_is_spent():
         assert earlier_scorings(entries, "office", config, "f" * 64, now)
     shipped = hashlib.sha256((Path(__file__).parents[2] / "raspv_learn/models/argus_iii.pt").read_bytes()).hexdigest()
     assert shipped in {e["model"] for e in office}
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["learn", "train", "argus_iii", "--evaluation", "grocery"], "needs --seed (one of [0, 1, 2])"),
+    (["learn", "train", "argus_iii", "--evaluation", "grocery", "--seed", "5"], "seed 5: not a training seed"),
+    (["learn", "train", "argus_iii", "--seed", "1"], "--seed, --depth and --rescore go with --evaluation"),
+    (["learn", "compare", "--evaluation", "grocery", "--data", "x"], "no --data or --out"),
+    (["learn", "dataset", "argus_iii", "--evaluation", "nope"], "evaluation nope: No such file"),
+])
+def test_cli_misuse_is_one_line(argv, says, capsys):
+    from raspv_bringup.cli import main as raspv
+
+    assert raspv(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert says in err and "\n" not in err
