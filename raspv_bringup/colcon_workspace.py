@@ -54,11 +54,12 @@ OPTIONAL = {"pyrealsense2", "openni", "depthai", "libusb_package", "torch", "ray
             "pytest"}   # pytest: the test harness (raspv_bringup.testing.dev_requirement), only under pytest
 ROS_PACKAGES = {"rclpy", "ament_index_python", "launch", "launch_ros"}
 # Extra files a package installs: (directory inside the repository, glob patterns). Installed
-# as site-packages/<dir>/… because the code looks for them beside its package folder.
+# as site-packages/<dir>/… beside the package: raspv_common.shipped looks for config/ and
+# experiments/ beside raspv_common (in a colcon install every package has a prefix of its own).
 DATA_DIRS: dict[str, dict[str, list[str]]] = {
-    "raspv_spv": {"config": ["devices/*.yaml", "layouts/*.yaml", "layouts/*.csv", "layouts/*.md"]},
-    "raspv_bringup": {"config": ["*.yaml", "*.xml", "*.json", "*.rviz"]},
-    "raspv_experiments": {"experiments": ["*.yaml", "worlds/*.yaml"]},
+    "raspv_common": {"config": ["*.yaml", "*.xml", "*.json", "*.rviz", "devices/*.yaml", "layouts/*.yaml",
+                                "layouts/*.csv", "layouts/*.md"],
+                     "experiments": ["*.yaml", "worlds/*.yaml", "results/*.csv", "results/*.yaml", "results/*.md"]},
 }
 # Files installed under share/<pkg>/ (ROS conventions: ros2 launch PKG FILE, RViz configs).
 SHARE_FILES: dict[str, dict[str, str]] = {
