@@ -7,10 +7,11 @@ the WebSocket) counts every frame it receives. Each kill waits until the warm sp
 (so the replacement registers under the same name within a few hundred ms, the case that showed
 a 1.04 s freeze), kills the spv process, and measures from the kill
 
-- ``ring``: the first frame made after the kill that reaches the client (the bridge's ring,
-  unless the new spv process is faster),
+- ``ring``: the first frame made after the kill (the bridge's ring, unless the new spv process
+  is faster), by its stamp (when it was made: a client that lags on a loaded machine receives
+  it later, by ``lag``, the client's delay behind the frames' stamps before the kill),
 - ``gap``: the longest time the client went without any frame, from 0.5 s before the kill to
-  0.5 s after the new process's first frame,
+  0.5 s after the new process's first frame (shifted by ``lag``),
 - ``back``: the new process's first frame (at the probe),
 
 and what the bridge said: its "no frames from the spv node (… its node gone)" line, the verdict
@@ -37,7 +38,8 @@ SETTLE_S = 0.5           # frames before the kill and after the new process's fi
 
 @dataclass
 class KillFigures:
-    ring_s: float           # kill → first frame made after it, at the client
+    ring_s: float           # kill → first frame made after it (its stamp)
+    lag_s: float            # the client's receipt behind the frames' stamps just before the kill
     gap_s: float            # the client's longest time without a frame around the kill
     back_s: float           # kill → the new spv process's first frame (at the probe)
 
@@ -124,24 +126,27 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
             back = frames.wait(1, timeout=timeout, predicate=lambda m: _stamp(m.header.stamp) > t_kill)[0]
             t_back = _stamp(back.header.stamp)
             deadline = time.monotonic() + timeout
-            while not any(r > t_back + SETTLE_S for r, _ in list(watcher.frames)):
+            while not any(stamp > t_back + SETTLE_S for _, stamp in list(watcher.frames)):
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"the watcher got no frame after the restart ({watcher.error!r})")
                 time.sleep(0.05)
             got = sorted(list(watcher.frames))
-            ring = next(r for r, stamp in got if stamp > t_kill) - t_kill
-            window = [r for r, _ in got if t_kill - SETTLE_S <= r <= t_back + SETTLE_S]
+            ring = min(stamp for _, stamp in got if stamp > t_kill) - t_kill
+            before = [r - stamp for r, stamp in got if t_kill - 1.0 <= stamp < t_kill]
+            lag = statistics.median(before) if before else 0.0
+            window = [r for r, _ in got if t_kill + lag - SETTLE_S <= r <= t_back + lag + SETTLE_S]
             gap = max(b - a for a, b in zip(window, window[1:]))
-            out.append(KillFigures(ring, gap, t_back - t_kill))
-            report(f"  kill {k + 1:>2}: ring after {ring * 1e3:4.0f} ms, longest gap {gap * 1e3:4.0f} ms, "
+            out.append(KillFigures(ring, lag, gap, t_back - t_kill))
+            report(f"  kill {k + 1:>2}: ring after {ring * 1e3:4.0f} ms (client lag {lag * 1e3:3.0f} ms), longest gap "
+                   f"{gap * 1e3:4.0f} ms, "
                    f"new spv's first frame after {t_back - t_kill:.2f} s (load {os.getloadavg()[0]:.1f})")
             with frames._cond:
                 frames.messages.clear()
                 frames.stamps.clear()
         during = g.output                    # (stopping the graph ends spv before the bridge: one more ring line)
     except TimeoutError as exc:
-        raise TimeoutError(f"{exc}; the bridge's threads: {_threads(_pid(g, 'bridge'))}; the graph's output:\n"
-                           f"{g.output[-4000:]}") from None
+        raise TimeoutError(f"{exc}; threads (name:state:wait) of the bridge: {_threads(_pid(g, 'bridge'))}; of spv: "
+                           f"{_threads(_pid(g, 'spv'))}; the graph's output:\n{g.output[-4000:]}") from None
     finally:
         if watcher is not None:
             watcher.close()
