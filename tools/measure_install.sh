@@ -17,6 +17,7 @@ step() {
       "(load average $before before, $(cut -d' ' -f1-3 /proc/loadavg) after)"
 }
 step default make install
-found=$(.venv/bin/pip list 2>/dev/null | grep -ciE "^(torch|ray|depthai|playwright|imageio-ffmpeg|pyrealsense2) " || true)
-say "default: $found of torch, Ray, DepthAI, Playwright, imageio-ffmpeg, pyrealsense2 installed (0 expected)"
+# the extras' packages, and what open3d/evo/gtsam declare but the project never imports (requirements/no-deps.txt)
+found=$(.venv/bin/pip list 2>/dev/null | grep -iE "^(torch|ray|depthai|playwright|imageio-ffmpeg|pyrealsense2|foxglove-sdk|flask|pandas|ipython|pytest) " | cut -d' ' -f1 | tr '\n' ' ' || true)
+say "default: of torch, Ray, DepthAI, Playwright, imageio-ffmpeg, pyrealsense2, foxglove-sdk, Flask, pandas, IPython, pytest installed: ${found:-none} (none expected)"
 step full make install EXTRAS=dev
