@@ -1,6 +1,6 @@
 # RASPV-py. The two commands a user needs: `make demo` and `make test` (both install first).
 # `make install` installs what the demo, graphs, recordings and experiments need; add extras with
-# `make install EXTRAS="learn cameras cluster"` (dev: all of them + the test tools; make test).
+# `make install EXTRAS="learn cameras cluster video foxglove"` (dev: all of them + the test tools; make test).
 VENV ?= .venv
 PYTEST_ARGS ?=
 EXTRAS ?=

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from raspv_bringup.cli import main as raspv
+from raspv_bringup.testing import dev_requirement
 from raspv_bags.from_frames import discover_frames, write_frames_bag
 from raspv_bags.reader import BagError
 from raspv_bags.render import RenderError, RenderSettings, render_bag
@@ -177,7 +178,7 @@ def test_bad_requests_are_refused(rgbd_bag, tmp_path):
 
 def test_h264_video_plays_back_with_every_frame_at_an_odd_size(rgbd_bag, tmp_path):
     """--codec h264 (the video extra): an H.264 mp4, padded to even sides, one frame per tick."""
-    pytest.importorskip("imageio_ffmpeg", reason="the video extra (requirements/video.txt) is not installed")
+    dev_requirement("imageio_ffmpeg", "imageio-ffmpeg")   # the video extra
     report = render_bag(rgbd_bag, tmp_path / "h.mp4", settings=RenderSettings(spv={"width": 201}, codec="h264"))
     cap = cv2.VideoCapture(str(tmp_path / "h.mp4"))
     fourcc = int(cap.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode(errors="replace")

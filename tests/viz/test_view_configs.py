@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import json
 
-import pytest
 import yaml
 
+from raspv_bringup.testing import dev_requirement
 from raspv_common import shipped, topics
 
 VIZ_TOPICS = {topics.VIZ_SCENE, topics.VIZ_STAIRS, topics.VIZ_PATH, topics.VIZ_PHOSPHENES, topics.VIZ_CLOUD}
@@ -24,7 +24,7 @@ def _walk(node):
 
 
 def test_foxglove_layout_is_up_to_date_and_names_real_topics():
-    pytest.importorskip("foxglove", reason="the foxglove extra (requirements/foxglove.txt) is not installed")
+    dev_requirement("foxglove", "foxglove-sdk")   # the foxglove extra
     from raspv_viz.foxglove_layout import LATENCY, LAYOUT_FILE, SYSINFO, layout_json
 
     assert LAYOUT_FILE.read_text() == layout_json(), "run: python -m raspv_viz.foxglove_layout"
