@@ -96,11 +96,11 @@ def compare_evaluation(args, evaluation: Evaluation, runs_root: str | Path = "ru
                 table = _score_condition(args, evaluation, base, cond, seeds, models, root, ledger)
                 results["tables"].append(table)
                 print(render_table(table), flush=True)
+                root.mkdir(parents=True, exist_ok=True)            # after every table: a later one may fail
+                (root / "results.json").write_text(json.dumps(results, indent=1))
     except (ScoringRefused, LedgerError) as exc:
         print(f"raspv learn: {exc}", file=sys.stderr)
         return 2
-    root.mkdir(parents=True, exist_ok=True)
-    (root / "results.json").write_text(json.dumps(results, indent=1))
     print(f"summary: {root / 'results.json'}")
     return 0
 
@@ -121,8 +121,11 @@ def _score_condition(args, evaluation: Evaluation, base, cond: str, seeds: list[
                     "configuration": base.name, "seed": seed, "depth": cond, "model": ident["model"],
                     "trained_at": ident["trained_at"], "rescore": bool(ident["earlier"])}, ledger)
         rescored |= bool(ident["earlier"])
-    s = summarise(class_counts(confusions, evaluation.metric), rows, LEARNED, evaluation.resamples,
-                  evaluation.confidence, evaluation.bootstrap_seed)
+    counts = class_counts(confusions, evaluation.metric)                     # (rows, seeds, frames, [tp fp fn])
+    root.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(root / f"per_frame-{base.name}-{cond}.npz", counts=counts.astype(np.int32),
+                        rows=np.array(rows), seeds=np.array(seeds))
+    s = summarise(counts, rows, LEARNED, evaluation.resamples, evaluation.confidence, evaluation.bootstrap_seed)
     gain = s.gain.points()
     return {"configuration": base.name, "depth": cond, "primary": cond == evaluation.primary_depth, "seeds": seeds,
             "frames": int(confusions.shape[2]), "rows": [

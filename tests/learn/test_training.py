@@ -175,3 +175,64 @@ def test_realistic_depth_dataset_keeps_the_frames_and_the_true_depth(tiny, tmp_p
     assert np.abs(read[both].astype(np.int64) - true[both]).mean() < 100   # mm: noise, not garbage
     for i in range(3):
         np.testing.assert_array_equal(ours.true_depth(i), perfect.depth(i))
+
+
+@pytest.mark.slow
+def test_the_pre_registered_scoring_end_to_end(tiny, tmp_path, monkeypatch, capsys):
+    """A tiny evaluation: dataset with realistic depth, two seeds trained for it, the scoring of
+    both depths (ledger lines, per-frame counts that give the table's numbers), then a model trained
+    after the scoring is refused, and scored with --rescore the table says so."""
+    import os
+
+    from raspv_learn import ledger as ledger_module
+    from raspv_learn.bootstrap import iou_of
+    from raspv_learn.evaluation import EVALUATIONS_DIR, configuration_for, load_evaluation
+
+    config, path, data = tiny
+    text = (EVALUATIONS_DIR / "grocery.yaml").read_text()
+    for old, new in (("name: grocery", "name: tinyeval"), ("test_worlds: [grocery]", "test_worlds: [apartment]"),
+                     ("test_frames_per_world: 500", "test_frames_per_world: 2"),
+                     ("configurations: [argus_iii, optimist]", "configurations: [tiny]"),
+                     ("training_seeds: [0, 1, 2]", "training_seeds: [0, 1]"), ("resamples: 10000", "resamples: 200")):
+        assert old in text
+        text = text.replace(old, new)
+    ev_path = tmp_path / "tinyeval.yaml"
+    ev_path.write_text(text)
+    ev = load_evaluation(ev_path)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(ledger_module, "LEDGER", tmp_path / "ledger.jsonl")
+    perfect = configuration_for(config, ev, 0, "perfect")
+    assert perfect.data == config.data                    # the fixture's dataset is the perfect one
+    (tmp_path / "data" / "learn").mkdir(parents=True)
+    os.symlink(data, tmp_path / "data" / "learn" / perfect.data.key())
+    ev_args = ["--evaluation", str(ev_path), "--quiet"]
+    assert raspv(["learn", "dataset", str(path), *ev_args]) == 0
+    for seed in ("0", "1"):
+        assert raspv(["learn", "train", str(path), *ev_args, "--seed", seed]) == 0
+    state = torch.load(tmp_path / "runs/learn/tinyeval/tiny-seed1/weights.pt", weights_only=False)
+    assert state["evaluation"]["sha256"] == ev.sha256 and state["seed"] == 1 and state["config"]["train"]["seed"] == 1
+    capsys.readouterr()
+    assert raspv(["learn", "compare", str(path), *ev_args]) == 0
+    out = capsys.readouterr().out
+    assert "tiny, realistic depth (primary)" in out and "tiny, perfect depth" in out and "RESCORED" not in out
+    results = json.loads((tmp_path / "runs/learn/tinyeval/results.json").read_text())
+    assert [t["depth"] for t in results["tables"]] == ["realistic", "perfect"]
+    for t in results["tables"]:
+        counts = np.load(tmp_path / f"runs/learn/tinyeval/per_frame-tiny-{t['depth']}.npz")["counts"]
+        assert counts.shape == (6, 2, 2, 3)
+        np.testing.assert_allclose([r["per_seed"] for r in t["rows"]], iou_of(counts.sum(2)), equal_nan=True)
+    lines = [json.loads(x) for x in (tmp_path / "ledger.jsonl").read_text().splitlines()]
+    assert len(lines) == 4 and {(x["seed"], x["depth"], x["rescore"]) for x in lines} == \
+        {(0, "realistic", False), (1, "realistic", False), (0, "perfect", False), (1, "perfect", False)}
+    # seed 1 trained again after the scoring: refused, then scored with --rescore and marked
+    import shutil
+
+    shutil.rmtree(tmp_path / "runs/learn/tinyeval/tiny-seed1")
+    assert raspv(["learn", "train", str(path), *ev_args, "--seed", "1"]) == 0
+    capsys.readouterr()
+    assert raspv(["learn", "compare", str(path), *ev_args, "--depth", "realistic"]) == 2
+    assert "pass --rescore" in capsys.readouterr().err
+    assert raspv(["learn", "compare", str(path), *ev_args, "--depth", "realistic", "--rescore"]) == 0
+    assert "RESCORED" in capsys.readouterr().out
+    lines = [json.loads(x) for x in (tmp_path / "ledger.jsonl").read_text().splitlines()]
+    assert [x["rescore"] for x in lines[4:]] == [False, True]
