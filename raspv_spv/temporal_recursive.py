@@ -237,14 +237,14 @@ class RecursiveTemporalState:
         np.copyto(self.amplitude, self.request, where=self._on_mask)
         self.t_pulse, self.t_ref = t_p, t_p + m.window
 
-    def _response(self, t: float) -> np.ndarray:
-        """The model's output y (N,) at ``t`` ≥ the latest pulse [ms]."""
+    def _response(self, t: float, scale: float = 1.0) -> np.ndarray:
+        """The model's output y (N,) at ``t`` ≥ the latest pulse [ms], times ``scale``."""
         m = self.model
         tau3 = m.params.tau3
         s = t - self.t_pulse
         if s >= m.window:
-            return _output_row(t - self.t_ref, tau3) @ self.state[:3]
-        y = _output_row(s, tau3) @ self.at_pulse[:3]
+            return (_output_row(t - self.t_ref, tau3) * scale).astype(DTYPE) @ self.state[:3]
+        y = (_output_row(s, tau3) * scale).astype(DTYPE) @ self.at_pulse[:3]
         if not self.pulse_scale.any():
             return y
         grid = m.bursts.s_grid
@@ -253,12 +253,13 @@ class RecursiveTemporalState:
         i0, w = self.pulse_index, self.pulse_weight[:, None]
         rows = m.partial[j] * (1 - ws) + m.partial[j + 1] * ws           # (G + 1, 2) at s
         at = rows.take(i0, axis=0) * (1 - w) + rows.take(i0 + 1, axis=0) * w
-        return np.maximum(y + self.pulse_scale * (at[:, 0] + self.pulse_d * at[:, 1]), 0.0)
+        part = self.pulse_scale * (at[:, 0] + self.pulse_d * at[:, 1]) * scale
+        return np.maximum(y + part, 0.0).astype(DTYPE)
 
     def advance(self, t_ms: float, amplitude: np.ndarray) -> np.ndarray:
         """Advance to ``t_ms`` delivering the pulses due since the last call (with the amplitudes
         requested then), return the brightness (N,) float32 at ``t_ms`` (``normalise=False``: the
-        model's output y, float64), and request
+        model's output y), and request
         ``amplitude`` (N,) in [0, 1] from now on. Time going back restarts from rest."""
         t = float(t_ms)
         if self.t_last is not None and t < self.t_last:
@@ -273,23 +274,22 @@ class RecursiveTemporalState:
             self.reset()
             self.next_pulse, self.t_last = next_pulse, t
             self.request[:] = request
-            self._on_mask = request > 0
-            self._on = self._on_mask.astype(DTYPE)
             self.next_pulse += (due - MAX_PULSES_PER_STEP) * period
             self.t_ref = self.next_pulse
             due = MAX_PULSES_PER_STEP
+        if due:
+            self._on_mask = self.request > 0          # (once per request, for all its pulses)
+            self._on = self._on_mask.astype(DTYPE)
         for _ in range(due):
             self._pulse(self.next_pulse)
             self.next_pulse += period
-        y = self._response(t)
-        if self.normalise:
-            y *= self._norm                          # y ≥ 0: every stage is fed non-negative r3
-            brightness = (np.minimum(y, 1.0, out=y) * self.amplitude).astype(np.float32)
+        y = self._response(t, self._norm)
+        if self.normalise:                            # y ≥ 0: every stage is fed non-negative r3
+            brightness = np.minimum(y, 1.0, out=y)
+            brightness *= self.amplitude
         else:
-            brightness = y * self._norm
-        np.copyto(self.request, np.asarray(amplitude, dtype=np.float32))
-        self._on_mask = self.request > 0
-        self._on = self._on_mask.astype(DTYPE)
+            brightness = y
+        np.copyto(self.request, amplitude)
         self.t_last = t
         return brightness
 
