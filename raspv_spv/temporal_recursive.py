@@ -10,12 +10,14 @@ longer sets the stimulation rate, and no frame waits for a tick of the model.
 Exact update. Between pulses every stage is linear and advances by closed-form exponentials:
 three τ3 integrators x ← E(Δt)·x (E = e^{−a}·[[1,0,0],[a,1,0],[a²/2,a,1]], a = Δt/τ3), charge
 ca ← e^{−kΔt}·ca (k = 1/``recovery_ms``, 0 in pulse2percept's model) and r2 following it.
-A pulse adds, over a window of ~9 ms after its onset, the state read from
+A pulse adds, over a window after its onset (0.9 ms for Horsager's model, 9.3 ms for Nanduri's),
+the state read from
 :mod:`raspv_spv.temporal_bursts` for the r2 it meets (linear interpolation on a 1024-point grid
 plus the first-order term in ca − r2); a frame inside that window reads the partial burst. The
-result equals pulse2percept's continuous model (forward Euler as its step → 0) to ~1e-6 of the
-peak at any sample time (tests/spv/test_temporal_recursive.py checks 1e-4 at 50 Hz, 90 Hz and
-jittered frame times).
+result equals the continuous model (forward Euler as its step → 0) to ~1.2e-5 of the peak at
+any sample time (tests/spv/test_temporal_recursive.py checks 1e-4 at 50 Hz, 90 Hz, jittered
+frame times and every 1/4 ms). State and tables are float32; per frame: one 3-vector product per
+phosphene, plus ~15 NumPy operations when a pulse falls in the interval.
 
 Brightness. As with the look-up table, the level of a phosphene's latest pulse is its amplitude
 and the model's response how much of it is perceived now: brightness = amplitude ·
