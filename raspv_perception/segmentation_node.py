@@ -24,6 +24,7 @@ from raspv_common import topics
 from raspv_common.conversions import ImageEncodingError, array_to_image, image_to_array, rgb_from_image, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_perception.class_table import ClassTable
 from raspv_perception.model_spec import ModelError
 from raspv_perception.person_fusion import FusionConfig
@@ -188,8 +189,8 @@ class SegmentationNode(RaspvNode):
                 return
             try:
                 self.pub_labels.publish(array_to_image(result.labels, encoding, header))
-            except Exception:  # noqa: BLE001 - the context can end while publishing at shutdown
-                if self.context.ok():
+            except SHUTDOWN_ERRORS as exc:          # the context can end while publishing at shutdown
+                if not during_shutdown(exc, self.context):
                     raise
                 return
             self.frames += 1

@@ -48,6 +48,7 @@ from raspv_common import frames, topics
 from raspv_common.conversions import ImageEncodingError, depth_from_image, matrix_to_pose, rgb_from_image
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.tf_messages import CameraPoseTf
 from raspv_slam.config import SlamConfig
 from raspv_slam.map_store import SlamMapError, maps_dir, resolve_map_path
@@ -141,7 +142,13 @@ class SlamNode(RaspvNode):
             rate = self.params["max_rate"]
             if rate > 0 and self._last_key is not None and 0 <= key - self._last_key < 1e9 / rate - FRAME_SLACK_NS:
                 continue
-            if self._process(key, color_msg, depth_msg):
+            try:
+                processed = self._process(key, color_msg, depth_msg)
+            except SHUTDOWN_ERRORS as exc:           # Ctrl-C/SIGTERM ended the context while it published
+                if during_shutdown(exc, self.context):
+                    return
+                raise
+            if processed:
                 self._last_key = key
 
     def _ensure_system(self) -> bool:
