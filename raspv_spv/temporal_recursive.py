@@ -116,16 +116,17 @@ class RecursiveModel:
         self.bursts: BurstTables = build_bursts(self.params, config.pulse, config.recovery_ms)
         b = self.bursts
         self.window = b.window_ms
-        # (12, G + 1): per r2 grid point, the state a pulse adds (x1, x2, x3) and its derivative in d
-        # (6 rows), then the step to the next grid point (6 rows): one take and one multiply-add
-        # interpolate; 0 past the grid
+        # (9, G + 1): per r2 grid point, the state a pulse adds (x1, x2, x3), the step to the next
+        # grid point (3 rows: one take and one multiply-add interpolate) and the derivative in d
+        # (3 rows; not interpolated: the d term is ~1e-4 of the burst, its interpolation 1e-3 of
+        # that); column G is 0: past the grid, and where no pulse is delivered
         g = b.full.shape[0]
-        values = np.zeros((6, g + 1))
-        values[:3, :g] = b.full.T
-        values[3:, :g] = b.full_d.T
-        steps = np.zeros_like(values)
-        steps[:, :-1] = np.diff(values, axis=1)
-        self.table = np.ascontiguousarray(np.concatenate([values, steps]), dtype=DTYPE)
+        table = np.zeros((9, g + 1))
+        table[:3, :g] = b.full.T
+        table[3:6, :g - 1] = np.diff(b.full.T, axis=1)
+        table[6:, :g] = b.full_d.T
+        self.table = np.ascontiguousarray(table, dtype=DTYPE)
+        self.no_pulse = g
         self.inv_step = 1.0 / b.r2_step
         self.last_index = float(b.full.shape[0] - 1)
         # partial bursts (S, G + 1, 2): x3 and its d-derivative inside the window
@@ -217,11 +218,6 @@ class RecursiveTemporalState:
         f = np.minimum(r2 * DTYPE(m.inv_step), DTYPE(m.last_index))
         i0 = f.astype(np.intp)
         w = f - i0
-        rows = m.table.take(i0, axis=1)               # take: ~10x faster than fancy indexing here
-        burst = rows[:6]
-        burst += w * rows[6:]
-        burst = burst[:3]
-        burst += d * rows[3:6]                        # x1, x2, x3 the pulse adds
         on = self._on
         if m.nanduri:
             t = m.bursts
@@ -229,11 +225,17 @@ class RecursiveTemporalState:
             peak = np.maximum(np.interp(r2, grid, t.peak, right=0.0) + d * np.interp(r2, grid, t.peak_d, right=0.0), 0.0)
             self.top = np.where(self._on_mask, np.maximum(self.top, peak), self.top)
             scale = on * m.gain(self.top)
+            rows = m.table.take(i0, axis=1)           # take: ~10x faster than fancy indexing here
         else:
             scale = on
+            # phosphenes without a pulse read column G (0): no scaling of the burst needed
+            rows = m.table.take(np.where(self._on_mask, i0, m.no_pulse), axis=1)
+        burst = rows[:3]
+        burst += w * rows[3:6]
+        burst += d * rows[6:]                         # x1, x2, x3 the pulse adds
         self.at_pulse, self.pulse_index, self.pulse_weight, self.pulse_d, self.pulse_scale = s, i0, w, d, scale
         new = m.through_window @ s
-        new[:3] += scale * burst
+        new[:3] += scale * burst if m.nanduri else burst
         new[3:] += on * m.own_charge                  # the pulse's own charge (r2, ca)
         self.state = new
         np.copyto(self.amplitude, self.request, where=self._on_mask)
