@@ -216,7 +216,8 @@ def _train(args, config, evaluation=None) -> int:
     prep_s = time.perf_counter() - t0
     twin = _twin(config)
     try:
-        model, result = train_end_to_end(config, data, twin, out, resume=args.resume, progress=not args.quiet)
+        model, result = train_end_to_end(config, data, twin, out, resume=args.resume, progress=not args.quiet,
+                                         score_test=evaluation is None)
     except TrainError as exc:
         print(f"raspv learn: {exc}", file=sys.stderr)
         return 2
@@ -235,8 +236,11 @@ def _train(args, config, evaluation=None) -> int:
                "threads": config.train.threads, "trained_at": trained_at, **record}
     (out / "result.json").write_text(json.dumps(summary, indent=1))
     print(f"{config.name}: {data.count} phosphenes, best epoch {result.best_epoch}/{config.train.epochs}; "
-          f"held-out ({', '.join(config.data.test_worlds)}) obstacle IoU {result.test['iou_obstacle']:.3f}, "
-          f"mIoU {result.test['miou']:.3f}; training {result.seconds / 60:.1f} min wall, "
+          + (f"held-out ({', '.join(config.data.test_worlds)}) obstacle IoU {result.test['iou_obstacle']:.3f}, "
+             f"mIoU {result.test['miou']:.3f}" if result.test else
+             f"validation mIoU {result.val['miou']:.3f}; {', '.join(config.data.test_worlds)} not scored (evaluation "
+             f"{evaluation.name}: raspv learn compare --evaluation {evaluation.name})")
+          + f"; training {result.seconds / 60:.1f} min wall, "
           f"{result.cpu_seconds / 60:.1f} min CPU on {config.train.threads} thread(s) "
           f"(+ {prep_s / 60:.1f} min preparing the data); {out / 'encoder.onnx'}")
     if args.ship:

@@ -134,9 +134,11 @@ class RunResult:
 
 
 def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, out_dir: str | Path,
-                     resume: bool = False, progress: bool = True) -> tuple[Pipeline, RunResult]:
+                     resume: bool = False, progress: bool = True, score_test: bool = True
+                     ) -> tuple[Pipeline, RunResult]:
     """Train encoder and decoder together; checkpoints in ``out_dir``. Returns the pipeline
-    with the best epoch's weights and its scores."""
+    with the best epoch's weights and its scores (``score_test`` False: the held-out worlds are
+    not touched, ``test`` is empty — a pre-registered evaluation scores them in compare only)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ckpt = out / "checkpoint.pt"
@@ -214,7 +216,8 @@ def train_end_to_end(config: LearnConfig, data: Prepared, twin: PhospheneTwin, o
     model.encoder.load_state_dict(best["encoder"])
     model.decoder.load_state_dict(best["decoder"])
     model.eval()
-    test = _evaluate(lambda i: model(torch.from_numpy(data.test.inputs[i]).float())[0], data.test, 64)
+    test = (_evaluate(lambda i: model(torch.from_numpy(data.test.inputs[i]).float())[0], data.test, 64)
+            if score_test else {})
     val = {k[4:]: v for k, v in history[best["epoch"] - 1].items() if k.startswith("val_")}
     return model, RunResult(best["epoch"], val, test, elapsed, cpu)
 

@@ -211,7 +211,8 @@ def test_the_pre_registered_scoring_end_to_end(tiny, tmp_path, monkeypatch, caps
         assert raspv(["learn", "train", str(path), *ev_args, "--seed", seed]) == 0
     state = torch.load(tmp_path / "runs/learn/tinyeval/tiny-seed1/weights.pt", weights_only=False)
     assert state["evaluation"]["sha256"] == ev.sha256 and state["seed"] == 1 and state["config"]["train"]["seed"] == 1
-    capsys.readouterr()
+    assert json.loads((tmp_path / "runs/learn/tinyeval/tiny-seed1/result.json").read_text())["test"] == {}
+    assert "apartment not scored (evaluation tinyeval" in capsys.readouterr().out     # train never scores the test world
     assert raspv(["learn", "compare", str(path), *ev_args]) == 0
     out = capsys.readouterr().out
     assert "tiny, realistic depth (primary)" in out and "tiny, perfect depth" in out and "RESCORED" not in out
