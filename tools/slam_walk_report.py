@@ -74,7 +74,7 @@ def main(argv=None) -> int:
         from raspv_slam.map_store import SlamMapError
 
         try:
-            a = load_alignment(args.map).alignment
+            a = load_alignment(args.map)
         except SlamMapError as exc:
             print(f"alignment: {exc}")
             return 0

@@ -66,6 +66,8 @@ def test_the_shipped_walks_load_and_are_long_enough():
     folder = Path(__file__).resolve().parents[2] / "raspv_sim" / "walks"
     office = plan_walk(load_walk(folder / "office_two_loops.yaml"))
     assert office.length_m >= 60.0 and len(office.loop_times) == 2
+    wide = plan_walk(load_walk(folder / "office_two_loops_wide.yaml"))
+    assert wide.length_m >= 60.0 and len(wide.loop_times) == 2
     kidnap = load_walk(folder / "office_kidnap.yaml")
     assert kidnap.kidnaps and kidnap.kidnaps[0].covered_s == 3.0
 

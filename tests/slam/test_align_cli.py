@@ -43,14 +43,14 @@ def test_a_map_is_placed_on_the_building_and_the_transform_stored(maps, tmp_path
     assert main(["slam", "align", str(m), "--building", str(maps / "building.yaml"), "-o", str(picture)]) == 0
     out = capsys.readouterr().out
     assert "building <- map: x" in out and "runner-up" in out
-    stored = load_alignment(m).alignment
+    stored = load_alignment(m)
     assert math.hypot(stored.x - PLACEMENT[0], stored.y - PLACEMENT[1]) < 0.05
     assert abs((stored.yaw_deg - PLACEMENT[2] + 180) % 360 - 180) < 1.0
     assert picture.stat().st_size > 10_000
     # a narrow guess round the truth (the map origin's placement, not the raster's) keeps it
     code = main(["slam", "align", str(m), "--building", str(maps / "building.yaml"), "--guess", "4.3", "2.1", "57",
                  "--radius", "0.5", "--yaw-range", "5"])
-    assert code == 0 and math.hypot(load_alignment(m).alignment.x - 4.3, load_alignment(m).alignment.y - 2.1) < 0.05
+    assert code == 0 and math.hypot(load_alignment(m).x - 4.3, load_alignment(m).y - 2.1) < 0.05
 
 
 def test_bad_input_is_one_line(maps, tmp_path, capsys):
