@@ -59,8 +59,12 @@ def main(argv=None) -> int:
     for k, t in enumerate(meta.get("loop_times_s", []), 1):
         t_return = epoch + float(t)
         if np.min(np.abs(est_stamps - t_return)) > 0.02:
-            print(f"return {k} at {t:.1f} s: no estimated pose")
-            continue
+            later = est_stamps[(est_stamps > t_return) & (est_stamps < t_return + 2.0)]
+            if not len(later):
+                print(f"return {k} at {t:.1f} s: no estimated pose (nor within 2 s after)")
+                continue
+            print(f"return {k} at {t:.1f} s: no estimated pose; the first one {later[0] - t_return:.2f} s later")
+            t_return = later[0]
         d = texture_drift(gt_stamps, gt_poses, est_stamps, est_poses, start, t_return, point)
         print(f"return {k} to the start at {t:.1f} s: floor texture moved {100 * d:.1f} cm "
               f"(point ({point[0]:.2f}, {point[1]:.2f}) m on the floor)")
