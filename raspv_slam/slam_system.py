@@ -200,8 +200,8 @@ class SlamSystem:
         c = self.config
         found = None
         for kf_id, _score in self.map.places.query(frame.features.descriptors, c.loop_candidates):
-            reg = self.registrar.register(frame, self._keyframe(kf_id), min_inliers=c.loop_min_inliers)
-            if reg.ok and reg.inliers >= c.loop_min_inliers and (found is None or reg.inliers > found[1].inliers):
+            reg = self.registrar.register(frame, self._keyframe(kf_id), min_inliers=c.relocalise_min_inliers)
+            if reg.ok and reg.inliers >= c.relocalise_min_inliers and (found is None or reg.inliers > found[1].inliers):
                 found = (kf_id, reg)
         if found is None:
             return (TrackingState.INITIALISING if self.ref is None else TrackingState.LOST), 0
