@@ -96,13 +96,27 @@ def compare_evaluation(args, evaluation: Evaluation, runs_root: str | Path = "ru
                 table = _score_condition(args, evaluation, base, cond, seeds, models, root, ledger)
                 results["tables"].append(table)
                 print(render_table(table), flush=True)
-                root.mkdir(parents=True, exist_ok=True)            # after every table: a later one may fail
-                (root / "results.json").write_text(json.dumps(results, indent=1))
+                _write_results(root / "results.json", results)      # after every table: a later one may fail
     except (ScoringRefused, LedgerError) as exc:
         print(f"raspv learn: {exc}", file=sys.stderr)
         return 2
     print(f"summary: {root / 'results.json'}")
     return 0
+
+
+def _write_results(path: Path, results: dict) -> None:
+    """Merge ``results``' tables into ``path`` (tables of other configurations or depths, from
+    another invocation of the same evaluation, are kept)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    kept = []
+    if path.exists():
+        old = json.loads(path.read_text())
+        if old.get("sha256") == results["sha256"]:
+            ours = {(t["configuration"], t["depth"]) for t in results["tables"]}
+            kept = [t for t in old["tables"] if (t["configuration"], t["depth"]) not in ours]
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps({**results, "tables": kept + results["tables"]}, indent=1))
+    tmp.replace(path)
 
 
 def _score_condition(args, evaluation: Evaluation, base, cond: str, seeds: list[int], models: dict, root: Path,
