@@ -27,7 +27,7 @@ def _docs_table(text: str, config: str, depth: str) -> tuple[dict, tuple[float, 
     return rows, tuple(float(x) for x in g.groups())
 
 
-@pytest.mark.parametrize("config", ["argus_iii"])   # optimist: not scored yet
+@pytest.mark.parametrize("config", ["argus_iii", "optimist"])
 def test_the_documented_grocery_table_is_the_per_frame_scores(config):
     ev = load_evaluation("grocery")
     with np.load(EVALUATIONS_DIR / "grocery.per_frame.npz") as f:
