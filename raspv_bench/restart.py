@@ -44,25 +44,6 @@ def graph_spec(spare: bool) -> dict:
             "spv": {"ros__parameters": {"device": "optimist", "mode": "chess_wall_obstacles"}}}
 
 
-def _pid_of(g, name: str) -> int:
-    """The pid of node ``name``'s running process, from the launcher's own lines."""
-    pattern = rf"{name} \({{kind}}, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)"
-    pids = [int(a or b) for a, b in re.findall(pattern.replace("{kind}", r"\w+"), g.output)]
-    if not pids:
-        raise RuntimeError(f"no process of node {name!r} in the launcher's output")
-    return pids[-1]
-
-
-def _wait_for_lines(g, pattern: str, count: int, timeout: float) -> None:
-    deadline = time.monotonic() + timeout
-    while len(re.findall(pattern, g.output, re.M)) < count:
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"{count} lines matching {pattern!r} not seen within {timeout:.0f} s")
-        if not g.running():
-            raise RuntimeError(f"the graph ended:\n{g.output[-2000:]}")
-        time.sleep(0.1)
-
-
 def _stages(text: str, name: str) -> dict[str, float]:
     out = {}
     for m in re.finditer(rf"^\[{name}\] startup: (.+?) at ([\d.]+) s$", text, re.M):
@@ -116,11 +97,11 @@ def _measure(probe, victims: list[str], spare: bool, args) -> dict[str, dict]:
             r["spare used"] = 0
             for k in range(args.repeat):
                 if spare:       # the node's own imports, then one spare per kill so far, then this one's
-                    _wait_for_lines(g, rf"^\[{name}\] startup: imports done", 2 + k, args.timeout)
+                    g.wait_for_lines(rf"^\[{name}\] startup: imports done", 2 + k, args.timeout)
                 else:
                     time.sleep(2.0)
                 out_len = len(g.output)
-                pid = _pid_of(g, name)
+                pid = g.pid_of(name)
                 t_kill = time.time()
                 os.kill(pid, signal.SIGKILL)
                 col = scene if name == "scene" else frames

@@ -118,9 +118,9 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
         watcher = Watcher(url)
         watcher.wait_frames(2 * int(SPV_RATE_HZ), timeout)          # 2 s of frames: the periods are learnt
         for k in range(kills):
-            _wait_lines(g, r"^\[spv\] startup: imports done", 2 + k, timeout)   # its warm spare is ready
+            g.wait_for_lines(r"^\[spv\] startup: imports done", 2 + k, timeout)   # its warm spare is ready
             time.sleep(1.0 + SETTLE_S)        # (the spare's imports compete for the CPU; frames flow again)
-            pid = _pid(g, "spv")
+            pid = g.pid_of("spv")
             t_kill = time.time()
             os.kill(pid, signal.SIGKILL)
             back = frames.wait(1, timeout=timeout, predicate=lambda m: _stamp(m.header.stamp) > t_kill)[0]
@@ -145,8 +145,8 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
                 frames.stamps.clear()
         during = g.output                    # (stopping the graph ends spv before the bridge: one more ring line)
     except TimeoutError as exc:
-        raise TimeoutError(f"{exc}; threads (name:state:wait) of the bridge: {_threads(_pid(g, 'bridge'))}; of spv: "
-                           f"{_threads(_pid(g, 'spv'))}; the graph's output:\n{g.output[-4000:]}") from None
+        raise TimeoutError(f"{exc}; threads (name:state:wait) of the bridge: {_threads(g.pid_of('bridge'))}; of spv: "
+                           f"{_threads(g.pid_of('spv'))}; the graph's output:\n{g.output[-4000:]}") from None
     finally:
         if watcher is not None:
             watcher.close()
@@ -169,21 +169,6 @@ def _threads(pid: int) -> str:
         except OSError:
             continue
     return ", ".join(out)
-
-
-def _pid(g, name: str) -> int:
-    found = re.findall(rf"{name} \(\w+, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)", g.output)
-    return int([a or b for a, b in found][-1])
-
-
-def _wait_lines(g, pattern: str, count: int, timeout: float) -> None:
-    deadline = time.monotonic() + timeout
-    while len(re.findall(pattern, g.output, re.M)) < count:
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"{count} lines matching {pattern!r} not seen within {timeout:.0f} s")
-        if not g.running():
-            raise RuntimeError(f"the graph ended:\n{g.output[-2000:]}")
-        time.sleep(0.1)
 
 
 def _stamp(t) -> float:

@@ -178,6 +178,25 @@ class RunningGraph:
             time.sleep(0.1)
         raise TimeoutError(f"{pattern!r} not in the graph output after {timeout:.0f} s:\n{self.output[-3000:]}")
 
+    def wait_for_lines(self, pattern: str, count: int, timeout: float = 120.0) -> None:
+        """Wait until ``count`` lines of the launcher's output match ``pattern`` (regex, multiline)."""
+        deadline = time.monotonic() + timeout
+        while len(re.findall(pattern, self.output, re.M)) < count:
+            if not self.running():
+                raise GraphStopped(f"graph ended (code {self.proc.returncode}) before {count} x {pattern!r}:\n"
+                                   f"{self.output[-3000:]}")
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"{count} lines matching {pattern!r} not seen within {timeout:.0f} s:\n"
+                                   f"{self.output[-3000:]}")
+            time.sleep(0.1)
+
+    def pid_of(self, name: str) -> int:
+        """The pid of node ``name``'s newest process (started or restarted), from the launcher's lines."""
+        found = re.findall(rf"{name} \(\w+, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)", self.output)
+        if not found:
+            raise RuntimeError(f"no process of node {name!r} in the launcher's output")
+        return int([a or b for a, b in found][-1])
+
     def stop(self, sig: int = signal.SIGINT, timeout: float = 30.0) -> int:
         """Signal the launcher, wait for it, and check every node process is gone."""
         if self.returncode is not None:

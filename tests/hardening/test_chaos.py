@@ -27,20 +27,6 @@ def _stamp(t) -> float:
     return t.sec + 1e-9 * t.nanosec
 
 
-def _pid(g, name: str) -> int:
-    """The newest pid of node ``name`` in the launcher's own lines."""
-    found = re.findall(rf"{name} \(\w+, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)", g.output)
-    return int([a or b for a, b in found][-1])
-
-
-def _wait_lines(g, pattern: str, count: int, timeout: float = 120.0) -> None:
-    deadline = time.monotonic() + timeout
-    while len(re.findall(pattern, g.output, re.M)) < count:
-        assert g.running(), g.output[-3000:]
-        assert time.monotonic() < deadline, f"{count} x {pattern!r} not seen:\n{g.output[-3000:]}"
-        time.sleep(0.1)
-
-
 def test_killed_nodes_with_restart_come_back_and_the_exit_table_says_so(graph, probe):
     g = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"},
                                     {"kind": "scene", "restart": True, "spare": False},
@@ -52,15 +38,15 @@ def test_killed_nodes_with_restart_come_back_and_the_exit_table_says_so(graph, p
     frames.wait(1, timeout=120, predicate=lambda m: _stamp(m.source_stamp) > 0)
 
     # spv: its warm spare (imports done, started a few seconds after it) takes over
-    _wait_lines(g, r"^\[spv\] startup: imports done", 2)
+    g.wait_for_lines(r"^\[spv\] startup: imports done", 2)
     t_kill = time.time()
-    os.kill(_pid(g, "spv"), signal.SIGKILL)
+    os.kill(g.pid_of("spv"), signal.SIGKILL)
     g.wait_for_output(r"node 'spv' ended \(killed by signal 9\); restarting it \(warm spare, pid \d+\)", timeout=30)
     frames.wait(1, timeout=60, predicate=lambda m: _stamp(m.header.stamp) > t_kill and _stamp(m.source_stamp) > t_kill)
 
     # scene (no spare): started again from scratch; the phosphenes follow new scene frames again
     t_kill = time.time()
-    os.kill(_pid(g, "scene"), signal.SIGKILL)
+    os.kill(g.pid_of("scene"), signal.SIGKILL)
     g.wait_for_output(r"node 'scene' ended \(killed by signal 9\); restarting it \(pid \d+\)", timeout=30)
     frames.wait(1, timeout=120, predicate=lambda m: _stamp(m.source_stamp) > t_kill)
     probe.unsubscribe(frames)
@@ -160,7 +146,7 @@ def test_the_headset_image_never_freezes_while_scene_and_spv_are_killed(graph, p
 
         # scene killed (restarted cold): the fallback on new camera frames, then the scene mode again
         t_kill = time.time()
-        os.kill(_pid(g, "scene"), signal.SIGKILL)
+        os.kill(g.pid_of("scene"), signal.SIGKILL)
         fallback = frames.wait(1, timeout=30, predicate=lambda m: _stamp(m.header.stamp) > t_kill and m.mode == "depth")[0]
         g.wait_for_output(r"node 'scene' ended \(killed by signal 9\); restarting it \(pid \d+\)", timeout=30)
         # (its own result again: until the scene goes stale, new frames carry its last result)
@@ -177,9 +163,9 @@ def test_the_headset_image_never_freezes_while_scene_and_spv_are_killed(graph, p
         assert frozen < STALE_TARGET_S + STALE_MARGIN_S
 
         # spv killed: its warm spare publishes frames, in the scene mode
-        _wait_lines(g, r"^\[spv\] startup: imports done", 2)
+        g.wait_for_lines(r"^\[spv\] startup: imports done", 2)
         t_kill = time.time()
-        os.kill(_pid(g, "spv"), signal.SIGKILL)
+        os.kill(g.pid_of("spv"), signal.SIGKILL)
         g.wait_for_output(r"node 'spv' ended \(killed by signal 9\); restarting it \(warm spare, pid \d+\)", timeout=30)
         first = images.wait(1, timeout=60, predicate=lambda m: _stamp(m.header.stamp) > t_kill)[0]
         again = frames.wait(1, timeout=120, predicate=lambda m: m.mode == mode and _stamp(m.header.stamp) > t_kill

@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
-import re
 import signal
 import threading
 import time
@@ -36,11 +35,6 @@ def _hog(stop) -> None:
 
 def _stamp(t) -> float:
     return t.sec + 1e-9 * t.nanosec
-
-
-def _pid(g, name: str) -> int:
-    found = re.findall(rf"{name} \(\w+, pid (\d+)\)", g.output)
-    return int(found[-1])
 
 
 class ShownModes:
@@ -98,7 +92,7 @@ def test_slow_nodes_keep_the_mode_and_a_stopped_one_is_shown(graph, probe):
         assert not other and episodes == 0, (other[:5], shown.status[-1])
 
         # the scene node stopped: dead to the graph (its DDS lease lapses) — the fallback, promptly
-        scene = _pid(g, "scene")
+        scene = g.pid_of("scene")
         t_stop = time.time()
         os.kill(scene, signal.SIGSTOP)
         try:

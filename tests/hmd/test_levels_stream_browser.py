@@ -8,7 +8,6 @@ bridge killed too → the page blinks the ring itself (issue 27, items 1–2).""
 from __future__ import annotations
 
 import os
-import re
 import signal
 import tempfile
 import time
@@ -106,7 +105,7 @@ def test_the_page_draws_what_the_spv_node_renders(graph, probe):
             assert "WebAssembly" in accumulation                      # the kernels loaded (CSP, MIME type)
 
             # the spv node hangs (stopped: a restart would bring a new map): the bridge draws the no-data ring
-            spv, bridge = _pid(g, "spv"), _pid(g, "bridge")
+            spv, bridge = g.pid_of("spv"), g.pid_of("bridge")
             os.kill(spv, signal.SIGSTOP)
             try:
                 page.wait_for_function("() => window.raspvClient.lastNoData && !window.raspvClient.localRing",
@@ -125,12 +124,6 @@ def test_the_page_draws_what_the_spv_node_renders(graph, probe):
             context.close()
     print(f"\nlevels stream vs server image (page thread: {accumulation}):\n" + "\n".join(report))
 
-
-
-def _pid(g, name: str) -> int:
-    """The newest pid of node ``name`` (started, or restarted) in the launcher's lines."""
-    found = re.findall(rf"{name} \(\w+, pid (\d+)\)|node '{name}' ended .*?pid (\d+)\)", g.output)
-    return int([a or b for a, b in found][-1])
 
 
 def _lit_image(page, state: str):
