@@ -59,14 +59,19 @@ def test_the_opposite_order_is_no_evidence_of_improvement():
         ordered_trends(flat, {"course": 90.0}, FACTOR, ["16", "100"])
 
 
-def test_quick_sweep_csvs_are_read_back_and_refused_when_wrong(tmp_path):
-    rows = saturating()
-    path = tmp_path / "a.csv"
+def _write_rows(path, rows):
+    """Quick-trial records as the quick sweep's CSV (header COLUMNS); returns the path."""
     with open(path, "w", newline="") as handle:
         w = csv.DictWriter(handle, fieldnames=COLUMNS)
         w.writeheader()
         for r in rows:
             w.writerow(r.row())
+    return path
+
+
+def test_quick_sweep_csvs_are_read_back_and_refused_when_wrong(tmp_path):
+    rows = saturating()
+    path = _write_rows(tmp_path / "a.csv", rows)
     back = read_quick_csv([path])
     assert [(r.subject, r.factors, r.success, r.collisions) for r in back] == \
         [(r.subject, r.factors, r.success, r.collisions) for r in rows]
@@ -135,12 +140,7 @@ def test_a_quick_sweep_over_two_factors_summarises_and_draws_every_cell(tmp_path
                                              {"spv.mode": mode, "spv.num_phosphenes": str(n)}, "hallway", 1, ok,
                                              20.0 if ok else float("nan"), 20.0 if ok else 40.0, 0 if ok else 2,
                                              7.0, n, 1.0))
-    path = tmp_path / "rows.csv"
-    with open(path, "w", newline="") as handle:
-        w = csv.DictWriter(handle, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow(r.row())
+    path = _write_rows(tmp_path / "rows.csv", rows)
     from raspv_bringup.cli import main
 
     code = main(["experiment", "quick-sweep", str(tmp_path / "sweep.yaml"), "--summarise", str(path),
