@@ -122,7 +122,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
         self.producers = ProducerWatch(self)            # whether the nodes behind the inputs live
         self._plan_lock = threading.Lock()
         self._shown: tuple | None = None        # (sim, stale set, plan, simulator shown, no-data pattern)
-        self._status_producers: dict | None = None      # the producer states /spv/status last told
+        self._status_args: tuple | None = None  # (plan, configured mode, producer states) /spv/status last told
         self._plan_logged = -1e9                # monotonic time of the last stale-input warning
         self._stale_logged = False
         self._seen: set[str] = set()
@@ -463,7 +463,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
             stale = self.staleness.check(now - self.view.latency_s, producers) if watching else frozenset()
             shown = self._shown
             if shown is not None and shown[0] is sim and shown[1] is stale:
-                if producers is not self._status_producers:           # /spv/status tells the producers' states now
+                if self._status_args is None or producers is not self._status_args[2]:   # /spv/status tells the producers' states now
                     self._publish_status(shown[2], sim.config.mode, producers)
                 return shown[2:]
             c = sim.config
@@ -500,7 +500,6 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
 
     def _publish_status(self, plan: staleness.DisplayPlan, configured_mode: str, producers: dict[str, str]) -> None:
         """Latched ``/spv/status`` (JSON): what is shown, why, and the producers' states."""
-        self._status_producers = producers
         self._status_args = (plan, configured_mode, producers)
         status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
                   "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
