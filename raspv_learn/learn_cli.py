@@ -223,7 +223,7 @@ def _train(args, config, evaluation=None) -> int:
         return 2
     from datetime import datetime, timezone
 
-    trained_at = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    trained_at = datetime.now(timezone.utc).isoformat(timespec="microseconds")
     record = {"evaluation": evaluation.record(), "seed": config.train.seed} if evaluation is not None else {}
     torch.save({"encoder": model.encoder.state_dict(), "decoder": model.decoder.state_dict(),
                 "config": config.as_dict(), "config_key": config.key(), "trained_at": trained_at, **record},

@@ -53,7 +53,7 @@ def earlier_scorings(entries: list[dict], world: str, configuration: str, model:
 
 def append(entry: dict, path: str | Path = LEDGER) -> dict:
     """Add a scoring (``scored_at`` is now, UTC, unless given); returns the entry written."""
-    entry = {**entry, "scored_at": entry.get("scored_at") or datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    entry = {**entry, "scored_at": entry.get("scored_at") or datetime.now(timezone.utc).isoformat(timespec="microseconds")}
     with open(path, "a") as f:
         f.write(json.dumps(entry, sort_keys=True) + "\n")
     return entry

@@ -67,7 +67,14 @@ def test_the_ledger_refuses_a_model_trained_after_its_world_was_scored(tmp_path)
     assert check_ledger(entries, ev, "optimist", later, rescore=False) == []           # another configuration
     assert check_ledger(entries, ev, "argus_iii", {**later, "model": "a" * 64}, rescore=False) == []   # same model
     assert earlier_scorings(entries, "office", "argus_iii", "b" * 64, later["trained_at"]) == []
+    # a model trained within the same second as the scoring: times are kept to the microsecond
+    from raspv_learn.ledger import append
     ledger = tmp_path / "ledger.jsonl"
+    scored = append({**_entry(), "scored_at": None}, ledger)
+    from datetime import datetime, timedelta
+    assert "." in scored["scored_at"]
+    same_second = (datetime.fromisoformat(scored["scored_at"]) + timedelta(microseconds=1)).isoformat()
+    assert earlier_scorings(read_ledger(ledger), "grocery", "argus_iii", "b" * 64, same_second) != []
     ledger.write_text('{"world": "grocery"}\n')
     with pytest.raises(ValueError, match="needs world, configuration, model and scored_at"):
         read_ledger(ledger)
