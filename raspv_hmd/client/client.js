@@ -5,7 +5,8 @@
 // stereo=1, green=1, format=levels|raw|png (default: levels — the page draws the phosphenes
 // itself from one weight per phosphene, levels_renderer.js; raw/png: images), draw=webgl|cpu (how
 // the page draws levels; default: WebGL with a graphics processor, else its own thread),
-// overlay=0, orientation=1 (phone motion sensors turn the head).
+// overlay=0, orientation=1 (phone motion sensors turn the head), refresh=N (present at N Hz: the
+// headset's refresh, when the browser's frame callback runs slower than the panel — below).
 // Frames: head orientation relative to the avatar base (x forward, y left, z up); roll/pitch/yaw
 // in radians, pitch > 0 looks down, yaw > 0 looks left.
 "use strict";
@@ -54,7 +55,7 @@
     drawsLevels: !!levels, drawer: levels ? (gpuDraw ? "webgl" : "cpu") : null, drawMs: 0, presentMs: 0,
     get accumulation() { return levels ? levels.accumulation : null; }, spritesMapId: null,
     framesFallback: 0, framesNoData: 0, lastNoData: false, bytesReceived: 0, spritesBytes: 0, localRing: false,
-    rttMs: null, ageMs: null, fps: 0, twistsSent: 0, headsSent: 0, keysSent: 0,
+    rttMs: null, ageMs: null, fps: 0, refreshHz: null, twistsSent: 0, headsSent: 0, keysSent: 0,
     head: { roll: 0, pitch: 0, yaw: 0 }, headQuaternion: null, twist: { linear: 0, angular: 0 },
     lastStatus: "", xr: false, orientation: false,
     instructions: null, trialId: null, startedId: null, experimentSent: [],
@@ -85,6 +86,15 @@
   const rtts = [];
   const keysDown = new Set();
   let shift = false, stickHead = [0, 0], stickBody = [0, 0], lastTick = performance.now();
+  // The presentation clock. By default the browser's frame callback: a WebXR session's frames run
+  // at the headset's refresh, a flat page's at its monitor's. ?refresh=N presents on a clock of N Hz
+  // of its own (e.g. 90: a headset's refresh) for a browser whose frame callback is slower than the
+  // panel — headless chromium calls back at 60 Hz; with --disable-frame-rate-limit it composites
+  // each drawn frame at once. S.fps counts frames the browser *composited* either way: with the
+  // clock a drawn frame counts at the frame callback that follows it, two draws before one
+  // callback count once (so a browser that cannot keep N shows its own rate, not N).
+  const REFRESH_HZ = Math.min(240, Math.max(0, Number(params.get("refresh")) || 0));
+  S.refreshHz = REFRESH_HZ || null;
 
   // ---- connection -------------------------------------------------------------------------
   function connect() {
@@ -351,11 +361,16 @@
     if (!readyMeta || readySeq <= S.lastShownSeq) return;
     S.lastShownSeq = readySeq;
     S.framesShown++;
-    fpsCount++;
+    if (REFRESH_HZ && !xrSession) { drawnSinceComposite = true; if (!compositeWatch) compositeWatch = requestAnimationFrame(composited); }
+    else fpsCount++;
     if (clockOffset !== null) S.ageMs = Date.now() - (readyMeta.stamp - clockOffset) * 1000;
     send({ type: "ack", seq: readySeq });
   }
-  let viewDirty = true, fpsCount = 0, fpsSince = performance.now();
+  let viewDirty = true, fpsCount = 0, fpsSince = performance.now(), drawnSinceComposite = false, compositeWatch = 0;
+  function composited() {                      // the browser's frame after a draw on the refresh clock
+    compositeWatch = 0;
+    if (drawnSinceComposite) { drawnSinceComposite = false; fpsCount++; }
+  }
 
   // ---- head -------------------------------------------------------------------------------
   function clamp(v, lo, hi) { return Math.max(lo, Math.min(hi, v)); }
@@ -551,7 +566,7 @@
       xrGl = xrLevels ? null : makeQuadRenderer(gl);
       xrSession = session; S.xr = true;
       $("vr").textContent = "Exit VR";
-      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; S.headQuaternion = null; $("vr").textContent = "Enter VR"; requestAnimationFrame(tick); });
+      session.addEventListener("end", () => { xrSession = null; xrGl = null; S.xr = false; S.headQuaternion = null; $("vr").textContent = "Enter VR"; startLoop(); });
       const onXRFrame = (t, frame) => {
         if (!xrSession) return;
         session.requestAnimationFrame(onXRFrame);
@@ -678,6 +693,23 @@
     requestAnimationFrame(tick);
   }
 
+  // ?refresh=N: the same on a clock of N Hz, phase-locked (a late callback does not shift the
+  // ones after it; one later than a whole period starts the clock again from now)
+  let refreshAt = 0;
+  function refreshTick() {
+    if (xrSession) return;
+    const now = performance.now(), period = 1000 / REFRESH_HZ;
+    step(now);
+    present();
+    refreshAt = refreshAt + period > now ? refreshAt + period : now + period;
+    setTimeout(refreshTick, Math.max(0, refreshAt - performance.now()));
+  }
+
+  function startLoop() {
+    if (REFRESH_HZ) { refreshAt = performance.now(); setTimeout(refreshTick, 0); }
+    else requestAnimationFrame(tick);
+  }
+
   setInterval(() => send({ type: "ping", t: performance.now() }), 1000);
   window.addEventListener("resize", () => { viewDirty = true; });
   window.addEventListener("deviceorientation", onOrientation);
@@ -696,6 +728,6 @@
   }
   setupXR();
   connect();
-  requestAnimationFrame(tick);
+  startLoop();
   view.focus();
 })();
