@@ -56,6 +56,7 @@ from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.rotations import quaternion_to_matrix
 from raspv_spv.camera_source import head_turns_camera
 from raspv_spv.frame_inputs import FrameInputs
+from raspv_spv.view_memory import MAX_FILL_VIEWS, ViewMemory, fill_outside
 
 # R_{H←C}: the optical frame's axes (x right, y down, z forward) in the head frame (x forward,
 # y left, z up) — the same convention as the simulator's avatar (raspv_sim.avatar).
@@ -142,6 +143,35 @@ class ViewTracker:
                 return None
             turn = self._base_turn(capture_stamp, display_stamp)
         return base_from_camera.T @ turn @ head_now @ OPTICAL_IN_HEAD
+
+    # -- world orientations (the view memory, raspv_spv.view_memory) -----------------------------
+    def world_from_camera(self, t0: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """(R_{W←C0} (3×3), the base's position (3,) [m]) at the capture stamp ``t0``; None
+        without odometry at ``t0`` (a remembered view needs the base: rotations are re-projected,
+        walking is not)."""
+        with self._lock:
+            base0 = self.base.lookup_or_none(t0)
+            base_from_camera = None if base0 is None else self._base_from_camera(t0)
+        if base_from_camera is None:
+            return None
+        return base0[:3, :3] @ base_from_camera, base0[:3, 3].copy()
+
+    def world_from_view(self, t1: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """(R_{W←C1} (3×3) of the view the display shows at ``t1``, the base's newest position
+        (3,) [m]); None without a head orientation or odometry. With :meth:`world_from_camera`,
+        R_{C0←C1} = R_{W←C0}ᵀ·R_{W←C1} — :meth:`capture_from_display` for frames of any age."""
+        with self._lock:
+            if not len(self.head) or not len(self.base):
+                return None
+            head_now = self.head.lookup(t1)[:3, :3]
+            latest = self.base.latest()
+            if t1 <= latest.stamp:
+                base1 = self.base.lookup(t1)[:3, :3]
+            else:
+                ahead = min(t1 - latest.stamp, MAX_BASE_EXTRAPOLATION_S)
+                base1 = latest.matrix[:3, :3] @ _yaw_matrix(self._yaw_rate * ahead)
+            position = latest.matrix[:3, 3].copy()
+        return base1 @ head_now @ OPTICAL_IN_HEAD, position
 
     def _base_from_camera(self, t0: float) -> np.ndarray | None:
         world_from_camera = self.camera.lookup_or_none(t0)
@@ -238,22 +268,37 @@ class DisplayView:
     setting changed at run time), so the change shows on the last frame at once.
     """
 
-    def __init__(self, reprojection: bool = True, latency_ms: float = 0.0, camera_source: str = "sim") -> None:
+    def __init__(self, reprojection: bool = True, latency_ms: float = 0.0, camera_source: str = "sim",
+                 memory_s: float = 0.0) -> None:
         self.reprojection = reprojection and head_turns_camera(camera_source)
         self.latency_s = latency_ms / 1000.0
         self.tracker = ViewTracker(history_s=max(HISTORY_S, self.latency_s + 1.0))
         self.frames = FrameHistory()
+        self.memory = ViewMemory(max_age_s=memory_s)
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
+        self.filled_ticks = 0                     # ... of them with phosphenes filled from remembered views
         self.gaze_rotation: np.ndarray | None = None   # the eye's G (gaze-contingent), set for each display tick
 
-    def configure(self, reprojection: bool, latency_ms: float, camera_source: str = "sim") -> None:
+    def configure(self, reprojection: bool, latency_ms: float, camera_source: str = "sim",
+                  memory_s: float | None = None) -> None:
         self.reprojection = reprojection and head_turns_camera(camera_source)
         self.latency_s = latency_ms / 1000.0
+        if memory_s is not None and memory_s != self.memory.max_age_s:
+            self.memory = ViewMemory(max_age_s=memory_s)
         self._last = None
+
+    @property
+    def remembering(self) -> bool:
+        """Whether turned views are filled from remembered frames: reprojection on, no device latency."""
+        return self.reprojection and self.latency_s == 0.0 and self.memory.enabled
 
     def add_frame(self, frame: DisplayFrame) -> None:
         self.frames.add(frame, self.latency_s)
+        if self.remembering:
+            seen = self.tracker.world_from_camera(frame.stamp)
+            if seen is not None:
+                self.memory.remember(frame, *seen)
 
     def newest_frame(self) -> DisplayFrame | None:
         """The newest frame added (whatever the device latency), or None."""
@@ -292,10 +337,41 @@ class DisplayView:
             levels = sim.levels(frame.inputs, capture_from_display=R)
         except ValueError:              # a mode this frame cannot feed (InputError is a ValueError)
             return (frame.levels, frame) if frame.simulator in (sim, None) else None
+        if R is not None and self.remembering:
+            levels = self._fill_from_memory(sim, frame, R, levels, display_stamp, gaze_rotation)
         self._last = (sim, frame, R, levels)
         if R is not None:
             self.turned_ticks += 1
         return levels, frame
+
+
+    def _fill_from_memory(self, sim, frame: DisplayFrame, R: np.ndarray, levels: np.ndarray, display_stamp: float,
+                          gaze_rotation: np.ndarray | None) -> np.ndarray:
+        """``levels`` of ``frame`` turned by R, with the phosphenes outside it sampled from the
+        newest remembered frames that saw them (:mod:`raspv_spv.view_memory`)."""
+        inside = sim.inside(frame.inputs, R)
+        if inside is None or inside.all():
+            return levels
+        view = self.tracker.world_from_view(display_stamp)
+        if view is None:
+            return levels
+        world_from_display, position = view
+        if gaze_rotation is not None:
+            world_from_display = world_from_display @ gaze_rotation
+
+        def sources():
+            for remembered in self.memory.candidates(display_stamp, position, exclude=frame)[:MAX_FILL_VIEWS]:
+                R_old = remembered.world_from_camera.T @ world_from_display
+                try:
+                    yield sim.levels(remembered.frame.inputs, capture_from_display=R_old), \
+                        sim.inside(remembered.frame.inputs, R_old)
+                except ValueError:      # a frame the current mode cannot feed
+                    continue
+
+        levels, filled = fill_outside(levels, inside, sources())
+        if filled:
+            self.filled_ticks += 1
+        return levels
 
 
 def _same_turn(a: np.ndarray | None, b: np.ndarray | None) -> bool:

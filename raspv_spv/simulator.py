@@ -170,6 +170,13 @@ class PhospheneSimulator:
             levels = overlay.apply(levels, inputs, sampling, self.num_levels)
         return levels
 
+    def inside(self, inputs: FrameInputs, capture_from_display: np.ndarray) -> np.ndarray | None:
+        """(N,) bool: the phosphenes whose rays, turned by ``capture_from_display``, fall inside
+        the frame's camera image (the others :meth:`levels` leaves dark); None without a camera."""
+        if inputs.camera is None:
+            return None
+        return self.sampling(inputs.camera).turned(capture_from_display).inside
+
     def brightness(self, levels: np.ndarray, frames: int = 1, at_s: float | None = None) -> np.ndarray:
         """Displayed brightness (N,) float32 in [0, 1] for ``levels`` held over the last
         ``frames`` display frames (advances the temporal model when it is on). The recursive

@@ -114,7 +114,8 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
         self.stamps = {"color": 0.0, "depth": 0.0, "scene": 0.0, "scene_labels": 0.0, "stairs": 0.0}
         self._waiting_since: float | None = None
         # frames with their levels, poses, and what the display shows (reprojection, device latency)
-        self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"], self.params["camera_source"])
+        self.view = DisplayView(self.params["reprojection"], self.params["device_latency_ms"], self.params["camera_source"],
+                                self.params["view_memory_s"])
         self._pending: FrameInputs | None = None        # a frame waiting for its camera pose
         self._pending_shown = False                     # … already shown with a predicted pose
         # stale inputs (raspv_spv.staleness): what the display shows instead
@@ -526,7 +527,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
         if self._tick_ms:
             print(f"spv: {self._ticks} display frames, {self._dropped} dropped, "
                   f"tick median {statistics.median(self._tick_ms):.2f} ms; {self.view.turned_ticks} re-projected "
-                  f"to a turned head; inputs went stale {self.staleness.episodes} times "
+                  f"to a turned head ({self.view.filled_ticks} filled from remembered views); inputs went stale {self.staleness.episodes} times "
                   f"({self.staleness.late_episodes} of them late from a live node)", flush=True)
 
 

@@ -94,8 +94,9 @@ class SpvReconfiguration:
         self._builder.submit(_Rebuild(merged, config, phosphene_map, map_id))
         if "rate" in changes:
             self._last_tick = None                  # the display loop picks up the new period
-        if {"reprojection", "device_latency_ms", "camera_source"} & set(changes):
-            self.view.configure(merged["reprojection"], merged["device_latency_ms"], merged["camera_source"])
+        if {"reprojection", "device_latency_ms", "camera_source", "view_memory_s"} & set(changes):
+            self.view.configure(merged["reprojection"], merged["device_latency_ms"], merged["camera_source"],
+                                merged["view_memory_s"])
             self._update_subscriptions(self.sim.needs, self.view.reprojection)
         if verdict is not None and verdict.warn:
             self.get_logger().warning(verdict.message)

@@ -70,6 +70,10 @@ PARAMS = [
     Param("carry_scene", True, "scene modes show each new depth frame at once with the newest scene-perception "
           "result carried into it by the camera's motion, and again with its own result when that comes; off: they "
           "wait for it (headless always waits)"),
+    Param("view_memory_s", 10.0, "a head turn beyond the newest camera frame is filled at once from frames already "
+          "shown in that direction (one per 10 deg, this young, the base within 5 cm of where they were taken; with "
+          "odometry and reprojection, no device latency) until the camera's frame comes; 0: off (dark)",
+          minimum=0.0, maximum=60.0, unit="s"),
     Param("device_latency_ms", 0.0, "simulated device latency: show the scene as captured this long before display "
           "(0: as soon as the graph can)", minimum=0.0, maximum=1000.0, unit="ms"),
     Param("gaze_mode", "ignored", "eye gaze (/gaze/direction): ignored (phosphenes fixed on the display), locked (the "
