@@ -5,8 +5,9 @@ graph's known topics (:mod:`raspv_bags.known_topics`: declared with :meth:`Recor
 added to the bag with their first message, so topics nobody publishes leave no trace), discovers
 the others, and hands every message (raw, serialised) here; :class:`Recording` writes
 the bytes unchanged through :class:`~raspv_bags.writer.BagWriter` (which flushes every
-``flush_interval_s``, so a killed recorder loses at most that much) and keeps the per-topic
-counts shown on the status line.
+``flush_interval_s``, so a killed recorder loses at most that much; MCAP chunks compressed
+losslessly with zstd by default, :data:`DEFAULT_COMPRESSION`) and keeps the per-topic counts
+shown on the status line.
 """
 from __future__ import annotations
 
@@ -25,6 +26,8 @@ DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")
 # too: /spv/frame (each phosphene's brightness), /spv/map and /spv/sprites re-render it exactly
 # (:mod:`raspv_bags.shown_render`). Name it, or pass ``images=True`` (``--images``), to record it.
 IMAGE_TOPICS = ("/spv/image",)
+# MCAP chunks compressed losslessly (raspv_bags.writer): the demo's camera streams 29 → 1.3 MB/s
+DEFAULT_COMPRESSION = "zstd"
 
 
 @dataclass(frozen=True)
@@ -55,10 +58,13 @@ class TopicSelection:
 class Recording:
     """A bag being recorded from the graph."""
 
-    def __init__(self, path: str | Path, storage: str = "mcap", flush_interval_s: float = 0.5) -> None:
+    def __init__(self, path: str | Path, storage: str = "mcap", flush_interval_s: float = 0.5,
+                 compression: str | None = None) -> None:
         from raspv_bags.writer import BagWriter      # rosbags: imported only when a bag is written
 
-        self.writer = BagWriter(path, storage, flush_interval_s=flush_interval_s)
+        if compression is None:
+            compression = DEFAULT_COMPRESSION if storage == "mcap" else "none"
+        self.writer = BagWriter(path, storage, flush_interval_s=flush_interval_s, compression=compression)
         self.path = self.writer.path
         self.started = time.monotonic()
         self.first_ns: int | None = None
@@ -98,9 +104,10 @@ class Recording:
         return dict(self.writer.counts)
 
     def status_line(self, width: int = 120) -> str:
-        """``12.3 s  41.2 MB  /camera/color/image_raw 245  /camera/pose 245 …`` cut to ``width``."""
+        """``12.3 s  41.2 MB  /camera/color/image_raw 245  /camera/pose 245 …`` cut to ``width``
+        (MB on disk)."""
         elapsed = time.monotonic() - self.started
-        head = f"recording {elapsed:6.1f} s  {self.writer.bytes_written / 1e6:7.1f} MB"
+        head = f"recording {elapsed:6.1f} s  {self.writer.file_bytes / 1e6:7.1f} MB"
         parts = [f"{t} {n}" for t, n in sorted(self.writer.counts.items())]
         line = "  ".join([head] + parts) if parts else head + "  (waiting for topics)"
         return line if len(line) <= width else line[: max(0, width - 1)] + "…"
@@ -108,8 +115,11 @@ class Recording:
     def summary(self) -> str:
         total = sum(self.writer.counts.values())
         span = (self.last_ns - self.first_ns) * 1e-9 if self.first_ns is not None else 0.0
-        lines = [f"{self.path}: {total} messages over {span:.1f} s, {self.writer.bytes_written / 1e6:.1f} MB "
-                 f"({self.writer.storage})"]
+        on_disk, raw = self.writer.file_bytes, self.writer.bytes_written
+        how = (f"{self.writer.storage}, {self.writer.compression}: {raw / 1e6:.1f} MB of messages, "
+               f"{raw / max(on_disk, 1):.1f}×" if self.writer.compression != "none" else self.writer.storage)
+        rate = f", {on_disk / 1e6 / span:.2f} MB/s" if span > 0 else ""
+        lines = [f"{self.path}: {total} messages over {span:.1f} s, {on_disk / 1e6:.1f} MB{rate} ({how})"]
         for t, n in sorted(self.writer.counts.items()):
             lines.append(f"  {t:40s} {n:7d}  {self.writer.types[t]}")
         return "\n".join(lines)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Callable
 
 from raspv_bags.reader import BagReader
+from raspv_bags.recording import DEFAULT_COMPRESSION
 from raspv_bags.writer import BagWriter, BagWriteError
 
 
@@ -33,8 +34,10 @@ def repair_bag(source: str | Path, output: str | Path, storage: str | None = Non
     :class:`~raspv_bags.writer.BagWriteError` when the output cannot be written."""
     with BagReader(source) as reader:
         total = reader.message_count
-        writer = BagWriter(output, storage or (reader.storage if reader.storage in ("mcap", "sqlite3") else "mcap"),
-                           flush_interval_s=None)
+        storage = storage or (reader.storage if reader.storage in ("mcap", "sqlite3") else "mcap")
+        # an MCAP copy compressed as a recording is (a repaired study session stays its size)
+        writer = BagWriter(output, storage, flush_interval_s=None,
+                           compression=DEFAULT_COMPRESSION if storage == "mcap" else "none")
         try:
             notes: list[str] = []
             kept = []

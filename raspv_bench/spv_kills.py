@@ -42,6 +42,7 @@ class KillFigures:
     lag_s: float            # the client's receipt behind the frames' stamps just before the kill
     gap_s: float            # the client's longest time without a frame around the kill
     back_s: float           # kill → the new spv process's first frame (at the probe)
+    gap_at_s: float = 0.0   # kill → the start of that longest gap (the client's receipt, less its lag)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -135,10 +136,10 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
             before = [r - stamp for r, stamp in got if t_kill - 1.0 <= stamp < t_kill]
             lag = statistics.median(before) if before else 0.0
             window = [r for r, _ in got if t_kill + lag - SETTLE_S <= r <= t_back + lag + SETTLE_S]
-            gap = max(b - a for a, b in zip(window, window[1:]))
-            out.append(KillFigures(ring, lag, gap, t_back - t_kill))
+            gap, gap_from = max((b - a, a) for a, b in zip(window, window[1:]))
+            out.append(KillFigures(ring, lag, gap, t_back - t_kill, gap_from - lag - t_kill))
             report(f"  kill {k + 1:>2}: ring after {ring * 1e3:4.0f} ms (client lag {lag * 1e3:3.0f} ms), longest gap "
-                   f"{gap * 1e3:4.0f} ms, "
+                   f"{gap * 1e3:4.0f} ms from {(gap_from - lag - t_kill) * 1e3:+5.0f} ms, "
                    f"new spv's first frame after {t_back - t_kill:.2f} s (load {os.getloadavg()[0]:.1f})")
             with frames._cond:
                 frames.messages.clear()

@@ -45,6 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     rec.add_argument("--images", action="store_true",
                      help="also record the rendered phosphene image /spv/image (~30 MB/s at 800x800, 50 Hz)")
     rec.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
+    rec.add_argument("--compression", choices=("zstd", "lz4", "none"), default=None,
+                     help="lossless compression of the MCAP chunks, which every MCAP reader undoes (default zstd; "
+                          "sqlite3 bags are uncompressed)")
     rec.add_argument("-d", "--duration", type=float, default=None, metavar="S", help="stop after S seconds")
     rec.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
                      help="seconds between flushes to disk: at most this much is lost if the recorder is killed "
@@ -134,6 +137,9 @@ def _record(args: argparse.Namespace) -> int:
         return _err("record", f"{out} exists already; choose a new output directory")
     if not out.absolute().parent.is_dir():
         return _err("record", f"{out.absolute().parent} is not a directory")
+    if args.storage != "mcap" and args.compression not in (None, "none"):
+        return _err("record", f"--compression {args.compression} is for MCAP bags (their chunks); "
+                              f"{args.storage} bags are written uncompressed")
     selection = TopicSelection(tuple(args.topics), tuple(args.exclude), images=args.images)
 
     apply_middleware_defaults()
@@ -151,9 +157,10 @@ def _record(args: argparse.Namespace) -> int:
     startup_mark("known topics subscribed")
     recording = None
     try:
-        recording = recorder.open_bag(out, args.storage, args.flush_interval)
+        recording = recorder.open_bag(out, args.storage, args.flush_interval, args.compression)
         startup_mark("bag opened")
-        print(f"recording to {out} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
+        how = args.storage + (f", {recording.writer.compression} chunks" if recording.writer.compression != "none" else "")
+        print(f"recording to {out} ({how}); Ctrl-C to stop", file=sys.stderr, flush=True)
         start = time.monotonic()
         last_status = last_discovery = last_flush = 0.0
         while not stop and rclpy.ok():
@@ -224,7 +231,7 @@ class _GraphRecorder:
             self.subscriptions[name] = self._subscribe(cls, name, qos)
             self.ahead[name] = (cls, msgtype)
 
-    def open_bag(self, out: Path, storage: str, flush_interval_s: float):
+    def open_bag(self, out: Path, storage: str, flush_interval_s: float, compression: str | None = None):
         """Create the bag and declare the topics subscribed ahead (their types made known to
         the bag's typestore; a type it cannot describe is not recorded)."""
         from raspv_bags.known_topics import KNOWN_TOPICS
@@ -233,7 +240,7 @@ class _GraphRecorder:
         from raspv_bags.writer import BagWriteError, QosSpec
 
         try:
-            recording = Recording(out, storage, flush_interval_s=flush_interval_s)
+            recording = Recording(out, storage, flush_interval_s=flush_interval_s, compression=compression)
         except BagWriteError as exc:
             raise _BagOpenError(str(exc)) from None
         recording.on_first_message = self._first_message

@@ -3,7 +3,8 @@
 It imports the node module and calls its ``main(argv)``. A SIGINT that lands while the module
 is still importing — seconds for nodes that import SciPy, Open3D or PyBullet, and exactly when
 a launch that fails stops its other nodes — ends the process quietly with exit code 130
-instead of a ``KeyboardInterrupt`` traceback; the launcher starts nodes with SIGINT blocked so
+instead of a ``KeyboardInterrupt`` traceback (also when a C extension turns the interrupt into an
+``ImportError``, :func:`interrupted`); the launcher starts nodes with SIGINT blocked so
 that one arriving while the interpreter itself starts waits until this module unblocks it.
 (Once ``main`` runs, ``run_node`` handles SIGINT as a clean stop.)
 
@@ -48,10 +49,32 @@ def main(argv: list[str] | None = None) -> None:
     except MissingExtra as exc:           # the node needs an extra: one line naming its install
         print(f"{module_name}: {exc}", file=sys.stderr)
         sys.exit(1)
+    except ImportError as exc:
+        if not interrupted(exc):
+            raise
+        _exit_quietly()
     try:
         module.main([module_name, *rest])
     except KeyboardInterrupt:             # between the import and run_node's own handling
         _exit_quietly()
+    except ImportError as exc:            # a module imported late (inside main), interrupted
+        if not interrupted(exc):
+            raise
+        _exit_quietly()
+
+
+def interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` was caused by a KeyboardInterrupt: a C extension whose module init is
+    interrupted reports it as ``ImportError: initialization failed`` chained from the
+    KeyboardInterrupt (pybind11; measured with rclpy's ``_rclpy_pybind11``: a SIGINT during the
+    bridge's import of rclpy left that traceback in its log, CI of the clean-shutdown test)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _wait_for_promotion() -> None:

@@ -10,7 +10,11 @@ client wants, and the no-data ring while the spv node is gone.
 - The spv node gone (killed, stopped, restarting: its DDS liveliness lost, or no frame for the
   stale bound of :mod:`raspv_spv.staleness`): the bridge draws the blinking no-data ring itself
   from the latched ``/spv/map`` and ``/spv/sprites``, so a headset never shows a frozen or black
-  image while the spv node restarts.
+  image while the spv node restarts. For :data:`PROBATION_S` after its frames come back, the
+  spv node's frames are judged by their gaps alone (the crash detector's bound, ≤ 0.26 s), even
+  though its new process lives: a replacement that sends its first frames and then stalls while
+  it starts (its first camera frame, caches) showed a frozen image for 346–424 ms in 2 of 45
+  kills under load, the 1-s late bound of a live producer applying.
 
 The frame path runs on a lean node of its own (``<bridge>_frames``: only these subscriptions
 and one timer, no parameter services) spun by its own executor in a thread: rclpy's executor
@@ -43,6 +47,7 @@ from raspv_spv.sprites_msg import atlas_from_msg
 
 SPV_INPUT = "phosphenes"          # the spv node's frames, watched like an input
 RING_PERIOD_S = 0.05              # the bridge's own no-data ring: 20 frames/s (it blinks at 2 Hz)
+PROBATION_S = 3.0                 # after the ring: the returning spv node's gaps judged as a crash's for this long [s]
 
 
 class BridgeFrames:
@@ -54,6 +59,7 @@ class BridgeFrames:
         self._map_msg: PhospheneMap | None = None
         self._ring: tuple[int, NoDataPattern] | None = None   # (map id, pattern)
         self._ring_shown = False
+        self._probation_until = float("-inf")              # monotonic time; see PROBATION_S
         self._image_sub = None
         self.spv_frames = staleness.StalenessMonitor(frozenset({SPV_INPUT}))
         self.spv_frames.watch({SPV_INPUT})
@@ -139,11 +145,13 @@ class BridgeFrames:
             self.server.submit_sprites(atlas.map_id, sprites_message(atlas, ring[1].mask))
 
     def on_frame(self, msg: PhospheneFrame) -> None:
-        self.spv_frames.arrived(SPV_INPUT, time.monotonic())
+        now = time.monotonic()
+        self.spv_frames.arrived(SPV_INPUT, now)
         self.spv_producer.arrived(SPV_INPUT)
         self.frames += 1
         if self._ring_shown:
             self._ring_shown = False
+            self._probation_until = now + PROBATION_S
             self.get_logger().info("the spv node's frames are back")
         atlas = self._atlas
         if atlas is None or msg.map_id != atlas.map_id or not self.server.wants_levels:
@@ -162,6 +170,9 @@ class BridgeFrames:
     def _watch_spv(self) -> None:
         now = time.monotonic()
         producers = self.spv_producer.states()
+        on_probation = now < self._probation_until and producers.get(SPV_INPUT) == staleness.ALIVE
+        if on_probation:            # a process just back: its gaps are judged alone (see PROBATION_S)
+            producers = {**producers, SPV_INPUT: staleness.UNKNOWN}
         if SPV_INPUT not in self.spv_frames.check(now, producers):
             return
         ring = self._ring_pattern()
@@ -171,6 +182,8 @@ class BridgeFrames:
         if not self._ring_shown:
             self._ring_shown = True
             what = self.spv_frames.describe(SPV_INPUT, now, producers.get(SPV_INPUT, staleness.UNKNOWN))
+            if on_probation:
+                what = what[:-1] + "; its node back less than {:.0f} s ago and stalled)".format(PROBATION_S)
             self.get_logger().warning(f"no frames from the spv node ({what}): "
                                       "showing the no-data ring")
         levels = pattern.levels(now)

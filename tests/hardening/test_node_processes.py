@@ -21,6 +21,21 @@ def main(argv):
     print("main ran", flush=True)
 """
 
+# A C extension's module init interrupted by SIGINT: pybind11 reports an ImportError chained from
+# the KeyboardInterrupt (seen with rclpy's _rclpy_pybind11: "ImportError: initialization failed")
+EXTENSION_IMPORT = """
+import pathlib, time
+pathlib.Path({marker!r}).write_text("importing")
+try:
+    time.sleep(60)
+except KeyboardInterrupt as exc:
+    raise ImportError("initialization failed") from exc
+"""
+
+BROKEN_IMPORT = """
+raise ImportError("initialization failed")
+"""
+
 FAST_NODE = """
 import os
 
@@ -52,6 +67,20 @@ def test_a_node_interrupted_while_importing_exits_quietly(tmp_path):
     proc.send_signal(signal.SIGINT)
     out = proc.communicate(timeout=30)[0]
     assert proc.returncode == 130 and "Traceback" not in out and "KeyboardInterrupt" not in out, out
+
+
+def test_an_import_error_caused_by_the_interrupt_exits_quietly_and_a_real_one_shows(tmp_path):
+    marker = tmp_path / "importing"
+    (tmp_path / "extension_node.py").write_text(EXTENSION_IMPORT.format(marker=str(marker)))
+    proc = _entry(tmp_path, "extension_node")
+    _wait_for(marker, proc)
+    proc.send_signal(signal.SIGINT)
+    out = proc.communicate(timeout=30)[0]
+    assert proc.returncode == 130 and "Traceback" not in out and "ImportError" not in out, out
+    (tmp_path / "broken_node.py").write_text(BROKEN_IMPORT)
+    proc = _entry(tmp_path, "broken_node")
+    out = proc.communicate(timeout=60)[0]
+    assert proc.returncode == 1 and "Traceback" in out and "ImportError: initialization failed" in out, out
 
 
 def test_a_sigint_before_the_interpreter_is_up_waits_and_exits_quietly(tmp_path):

@@ -30,10 +30,11 @@ def test_the_ring_follows_every_kill_of_spv_within_300_ms(ros_domain):
     assert max(rings) <= TARGET_S + MARGIN_S, (rings, output[-3000:])
     assert max(gaps) <= TARGET_S + MARGIN_S, (gaps, output[-3000:])
     # every ring judged the dead process, never "alive but late" (the bug's line); a new process
-    # whose first frames stall before its announcement is heard may show the ring once more
+    # whose first frames stall while it starts shows the ring once more (its probation)
     lines = re.findall(r"no frames from the spv node \((.*)\): showing", output)
     print("\n".join(lines))
-    assert len(lines) >= KILLS and all("its node gone" in line for line in lines), lines
+    assert sum("its node gone" in line for line in lines) >= KILLS, lines
+    assert all("its node gone" in line or "stalled" in line for line in lines), lines
     # the replacement's node name not known yet is not a producer: no alive topic for it
     assert "topic seen:" not in output, output[-500:]
     assert "Traceback" not in output
