@@ -122,6 +122,8 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$STAMPED" ]; then
   # (before the imports below: a machine without the system's libusb fails them otherwise).
   LIBUSB=$("$VPY" -c 'import libusb_package; print(libusb_package.get_library_path())')
   ln -sf "$LIBUSB" "$VENV/lib/libusb-1.0.so.0"
+  # the ROS wheels install libfastrtps.so, .so.2.14 and .so.2.14.5 as three copies (31 MB): links
+  "$VPY" "$ROOT/tools/link_library_copies.py" "$VENV/lib" > /dev/null
   "$VPY" -c 'import rclpy, numpy, cv2, pybullet, rosbags, websockets, open3d, gtsam, evo.tools.file_interface' ||
     die "dependency installation failed; rerun with: $VPY -m pip install -r requirements/python.txt && $VPY -m pip install --no-deps -r requirements/no-deps.txt"
   case " $WANT " in *" learn "*)
