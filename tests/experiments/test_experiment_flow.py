@@ -1,6 +1,7 @@
 """The check of issue 15, as a new user would do it: write a 2-condition × 3-repetition protocol from
-the documented example, run it to the end with a scripted subject, run a second subject and kill
-the runner in the middle of a trial, resume it, make the report and open it in a browser.
+the documented example, run it to the end with a scripted subject, run a second subject (at the same
+time, on another ROS domain) and kill the runner in the middle of a trial, resume it, make the report
+and open it in a browser.
 
 Real processes throughout: ``raspv experiment run`` (its graph: sim in lockstep, headless spv,
 the scripted subject node) and ``raspv experiment report``; the report is opened in Debian's
@@ -23,6 +24,7 @@ import yaml
 from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.session import read_jsonl
 from raspv_bringup.testing import CHROMIUM, dev_requirement
+from raspv_common.ros_domains import lock_free_domain
 from raspv_bringup.testing import CHROMIUM_ARGS as ARGS
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
@@ -69,30 +71,47 @@ def study(tmp_path_factory, ros_domain):
                            capture_output=True, text=True, timeout=60)
     assert check.returncode == 0 and "2 conditions × 1 tasks × 3 repetitions" in check.stdout, check.stderr
 
-    # subject 1 runs to the end
-    log1 = finish(raspv("experiment", "run", str(protocol), "--subject", "scripted:wander_avoid:1", "--out", str(out)),
-                  timeout=240)
-    # subject 2 is killed in the middle of its third trial …
-    s2 = out / "my_study" / "scripted-wander_avoid-2"
-    run2 = raspv("experiment", "run", str(protocol), "--subject", "scripted:wander_avoid:2", "--out", str(out))
+    # subject 1 runs to the end, meanwhile (its graph on a ROS domain of its own, as a sweep's workers) …
+    domain1, domain1_lock = lock_free_domain()
+    log1_path = root / "subject1.log"                  # a file, not a pipe nobody reads while subject 2 runs
+    with open(log1_path, "w") as log1_file:
+        run1 = subprocess.Popen([sys.executable, "-m", "raspv_bringup.cli", "experiment", "run", str(protocol),
+                                 "--subject", "scripted:wander_avoid:1", "--out", str(out)], stdout=log1_file,
+                                stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                                env={**os.environ, "ROS_DOMAIN_ID": str(domain1)})
     try:
-        third = lambda: [p for p in (s2 / "trials").glob("003-*-a1") if (p / "trajectory.csv").exists()  # noqa: E731
-                         and len((p / "trajectory.csv").read_text().splitlines()) > 5]
-        wait_for(lambda: len(read_jsonl(s2 / "trials.jsonl")) >= 2 and third(), 180, "the third trial did not start")
-        nodes = psutil.Process(run2.pid).children(recursive=True)
-        assert len(nodes) >= 3, "the runner should have its graph's node processes"
-        os.kill(run2.pid, signal.SIGKILL)
-        run2.wait(timeout=30)
-        killed_records = read_jsonl(s2 / "trials.jsonl")
-        wait_for(lambda: not any(p.is_running() and p.status() != psutil.STATUS_ZOMBIE for p in nodes), 30,
-                 "the graph's nodes did not die with the killed runner")
+        # … subject 2 is killed in the middle of its third trial …
+        s2 = out / "my_study" / "scripted-wander_avoid-2"
+        run2 = raspv("experiment", "run", str(protocol), "--subject", "scripted:wander_avoid:2", "--out", str(out))
+        try:
+            third = lambda: [p for p in (s2 / "trials").glob("003-*-a1") if (p / "trajectory.csv").exists()  # noqa: E731
+                             and len((p / "trajectory.csv").read_text().splitlines()) > 5]
+            wait_for(lambda: len(read_jsonl(s2 / "trials.jsonl")) >= 2 and third(), 180, "the third trial did not start")
+            nodes = psutil.Process(run2.pid).children(recursive=True)
+            assert len(nodes) >= 3, "the runner should have its graph's node processes"
+            os.kill(run2.pid, signal.SIGKILL)
+            run2.wait(timeout=30)
+            killed_records = read_jsonl(s2 / "trials.jsonl")
+            wait_for(lambda: not any(p.is_running() and p.status() != psutil.STATUS_ZOMBIE for p in nodes), 30,
+                     "the graph's nodes did not die with the killed runner")
+        finally:
+            if run2.poll() is None:
+                os.killpg(run2.pid, signal.SIGKILL)
+            run2.stdout.close()
+        # … and resumed
+        log2 = finish(raspv("experiment", "run", str(protocol), "--subject", "scripted:wander_avoid:2", "--out",
+                            str(out), "--resume"), timeout=240)
+        try:
+            run1.wait(timeout=240)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"subject 1's run did not finish within 240 s:\n{log1_path.read_text()[-3000:]}")
+        log1 = log1_path.read_text()
+        assert run1.returncode == 0, log1[-3000:]
     finally:
-        if run2.poll() is None:
-            os.killpg(run2.pid, signal.SIGKILL)
-        run2.stdout.close()
-    # … and resumed
-    log2 = finish(raspv("experiment", "run", str(protocol), "--subject", "scripted:wander_avoid:2", "--out", str(out),
-                        "--resume"), timeout=240)
+        if run1.poll() is None:
+            os.killpg(run1.pid, signal.SIGKILL)
+            run1.wait()
+        domain1_lock.close()
     report_log = finish(raspv("experiment", "report", str(out), "-o", str(root / "report")), timeout=120)
     return {"root": root, "out": out, "s2": s2, "killed_records": killed_records, "logs": (log1, log2, report_log),
             "report": root / "report" / "report.html"}

@@ -1,5 +1,7 @@
 """Sweeps of scripted subjects: worker processes on this machine (each graph on its own ROS domain) and
-the same sweep file on a local Ray instance; then the report on the sweep's sessions."""
+the same sweep file on a local Ray instance; then the report on the sweep's sessions. The worker-process
+sweep is the first of the two runs tests/experiments/test_exact_repetition.py compares (the session
+fixture ``repeated_sweep``): one sweep run, checked by both."""
 from __future__ import annotations
 
 import pytest
@@ -29,26 +31,26 @@ def short_sweep(tmp_path, subjects: int = 2, policy: str = "wander_avoid", repet
     return load_sweep(tmp_path / "sweep.yaml")
 
 
-def check_sessions(results, out, subjects, ros_domain):
-    assert sorted(r["subject"] for r in results) == [f"scripted-wander_avoid-{n}" for n in range(1, subjects + 1)]
+def check_sessions(results, out, subjects, ros_domain, policy: str = "wander_avoid", repetitions: int = 1,
+                   name: str = "short_sweep"):
+    assert sorted(r["subject"] for r in results) == [f"scripted-{policy}-{n}" for n in range(1, subjects + 1)]
     assert all(r["code"] == 0 for r in results), [r["log"] for r in results]
     domains = [r["domain"] for r in results]
     assert len(set(domains)) == len(domains), domains                  # each graph on a domain of its own,
     assert all(LOW <= d < HIGH and d != ros_domain for d in domains), domains   # claimed, not the test's
     for r in results:
-        records = read_jsonl(out / "sessions" / "short_sweep" / r["subject"] / "trials.jsonl")
+        records = read_jsonl(out / "sessions" / name / r["subject"] / "trials.jsonl")
         assert [x["condition"] for x in records] and {x["status"] for x in records} == {"completed"}
-        assert sorted(x["condition"] for x in records) == ["mode=depth", "mode=grey"]
+        assert sorted(x["condition"] for x in records) == sorted(["mode=depth", "mode=grey"] * repetitions)
         assert all(0 < x["metrics"]["duration_s"] <= 5.2 for x in records)
 
 
-def test_sweep_on_worker_processes(tmp_path, ros_domain):
-    sweep = short_sweep(tmp_path)
-    out = tmp_path / "out"
-    results = run_sweep(sweep, out, workers=2, say=lambda s: None)
-    check_sessions(results, out, 2, ros_domain)
+def test_sweep_on_worker_processes(repeated_sweep, tmp_path, ros_domain):
+    """2 virtual subjects (navigate) × 2 modes × 2 repetitions on 2 worker processes."""
+    _, out, results = repeated_sweep
+    check_sessions(results, out, 2, ros_domain, policy="navigate", repetitions=2, name="repeat")
     page = build_report([out], tmp_path / "report").read_text()
-    assert "4 trial records" in page and "mode=depth" in page
+    assert "8 trial records" in page and "mode=depth" in page
 
 
 def test_the_same_sweep_on_a_local_ray_instance(tmp_path, ros_domain):
