@@ -101,9 +101,11 @@ def check_quick(sweep: Sweep) -> list[str]:
 
 
 def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
-                    progress: Callable[[str], None] | None = print) -> list[QuickTrialRecord]:
+                    progress: Callable[[str], None] | None = print,
+                    only: set[tuple[int, str, str, int]] | None = None) -> list[QuickTrialRecord]:
     """Every trial of ``sweep`` with :func:`quick_trial`, in order (subject, then its conditions);
-    each row appended to ``out_csv`` (flushed) as the trial ends."""
+    each row appended to ``out_csv`` (flushed) as the trial ends. ``only``: just these trials
+    (subject, condition, task, repetition), each seeded as in the whole sweep (a sample re-run)."""
     from raspv_experiments.quick_trial import quick_trial
 
     problems = check_quick(sweep)
@@ -116,6 +118,15 @@ def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
     reps = sweep.protocol.design.repetitions
     plan = [(s, c, t, r) for s in sweep.subjects for c in sweep.protocol.conditions for t in sweep.protocol.tasks
             for r in range(1, reps + 1)]
+    seeds, count = {}, {}
+    for s, c, t, r in plan:                      # trial k of subject s's session: seeded s * 100003 + k
+        count[s] = count.get(s, 0) + 1
+        seeds[(s, c.name, t.name, r)] = s * 100_003 + count[s]
+    if only is not None:
+        missing = sorted(set(only) - set(seeds))
+        if missing:
+            raise ValueError(f"{sweep.path}: no such trials in the sweep: {missing}")
+        plan = [k for k in plan if (k[0], k[1].name, k[2].name, k[3]) in only]
     records: list[QuickTrialRecord] = []
     writer, handle = None, None
     if out_csv is not None:
@@ -125,10 +136,8 @@ def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
         writer.writeheader()
     started = time.monotonic()
     try:
-        trial_of: dict[int, int] = {}
         for i, (subject, cond, task, rep) in enumerate(plan, 1):
-            trial_of[subject] = trial_of.get(subject, 0) + 1
-            config = subject_config(sweep, subject, subject * 100_003 + trial_of[subject])
+            config = subject_config(sweep, subject, seeds[(subject, cond.name, task.name, rep)])
             spv = {**spv_base, **cond.params.get("spv", {}), "headless": True}
             t0 = time.monotonic()
             res = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
@@ -259,3 +268,22 @@ def summary_table(summaries: list[LevelSummary], factor: str,
                      f"[{s.collisions_ci[0]:.2f}, {s.collisions_ci[1]:.2f}] | {s.time_s:.1f} "
                      f"[{s.time_ci[0]:.1f}, {s.time_ci[1]:.1f}] |")
     return "\n".join(lines)
+
+
+def stratified_sample(records: list[QuickTrialRecord], seed: int = 33) -> set[tuple[int, str, str, int]]:
+    """One trial of every (condition, task) cell of ``records``, each from another subject where
+    there are enough (drawn seeded: the same records give the same sample) — rows to re-run and
+    compare, so a documented table is checked in every condition, not in one subject's session."""
+    rng = np.random.default_rng(seed)
+    cells: dict[tuple[str, str], list[QuickTrialRecord]] = {}
+    for r in records:
+        cells.setdefault((r.condition, r.task), []).append(r)
+    used: set[int] = set()
+    out = set()
+    for key in sorted(cells):
+        rows = sorted(cells[key], key=lambda r: (r.subject, r.repetition))
+        fresh = [r for r in rows if r.subject not in used] or rows
+        pick = fresh[int(rng.integers(len(fresh)))]
+        used.add(pick.subject)
+        out.add((pick.subject, pick.condition, pick.task, pick.repetition))
+    return out

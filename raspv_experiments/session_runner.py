@@ -381,7 +381,7 @@ class SessionRunner:
             told = told_goal((math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy),
                              self.protocol.goal_knowledge, self.number * 100_003 + trial.index)
             if told is not None:       # goal_knowledge none: nothing said (the subject explores)
-                info["goal_from_start"] = [round(told[0], 4), round(told[1], 4)]
+                info["goal_from_start"] = [float(told[0]), float(told[1])]     # exact, as quick_trial tells it
             info["after"] = self.client.state()[0] or 0.0
         if not self._wait_start(info):
             return "quit"

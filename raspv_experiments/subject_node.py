@@ -13,7 +13,10 @@ Each trial starts with a fresh policy, seeded by the subject's seed and the tria
 its instructions come; the instructions of a scripted session also say where the goal is from
 the start (``goal_from_start`` [m], x ahead, y left: what a person is told) and the sim time
 ``after`` which the trial's frames come (earlier frames still in flight are answered but not
-seen), so a trial's commands depend on that trial's frames only.
+seen), so a trial's commands depend on that trial's frames only. The policy's clock is the
+trial's (:class:`~raspv_experiments.trial_clock.TrialClock`: 0 at its start, frame periods summed
+as the simulator sums them), so its time comparisons do not depend on when in the session the
+trial ran, and match a quick trial's to the bit.
 
 With ``gaze`` ``model`` or ``trace`` it also moves its eyes (:mod:`raspv_experiments.scripted_gaze`):
 each trial plays a gaze trace from the trial's start (the model seeded by the trial's seed), and
@@ -37,11 +40,13 @@ from raspv_common import topics
 from raspv_common.frames import BASE_LINK
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.node import RaspvNode, run_node
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
 from raspv_experiments.scripted_gaze import (GazeModelConfig, GazeScript, displayed_layout_index, load_trace,
                                              model_trace)
 from raspv_experiments.subject_params import PARAMS
+from raspv_experiments.trial_clock import TrialClock
 from raspv_sim.avatar import head_quaternion
 
 
@@ -62,6 +67,7 @@ class SubjectNode(RaspvNode):
         self.answered_instructions = ""
         self.goal: tuple[float, float] | None = None     # the trial's goal from its start [m] (x ahead, y left)
         self.after = -1.0                                # frames up to this sim time are from before the trial
+        self.clock = TrialClock()
         self.frames = 0
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
@@ -74,7 +80,7 @@ class SubjectNode(RaspvNode):
         self.create_subscription(PhospheneMap, topics.SPV_MAP, self.on_map, LATCHED_QOS)
         self.create_subscription(PhospheneFrame, topics.SPV_FRAME, self.on_frame, SENSOR_QOS)
         self.create_subscription(String, topics.EXPERIMENT_INSTRUCTIONS, self.on_instructions, LATCHED_QOS)
-        self.create_subscription(CollisionEvent, topics.SIM_COLLISIONS, self.on_collision, EVENT_QOS)
+        self._collisions = self.create_subscription(CollisionEvent, topics.SIM_COLLISIONS, self.on_collision, EVENT_QOS)
         self._bumps: list[float] = []                    # sim times [s] of bumps not yet felt
         self.get_logger().info(f"scripted subject: policy {self.params['policy']}, seed {self.params['seed']}")
 
@@ -116,6 +122,7 @@ class SubjectNode(RaspvNode):
         goal = info.get("goal_from_start")
         self.goal = (float(goal[0]), float(goal[1])) if isinstance(goal, list) and len(goal) == 2 else None
         self.after = float(info.get("after", -1.0))
+        self.clock = TrialClock(self.after)
         self._new_policy(self.params)
         self.gaze = self._gaze_script(self.params, self.after) if self.after >= 0 else None   # else from the next frame
         self._publish_head(math.radians(self.params["head_pitch_deg"]))     # the head it will hold, before starting
@@ -156,6 +163,24 @@ class SubjectNode(RaspvNode):
         """A bump (stamped with the camera frame of the step it happened in): felt with that frame."""
         self._bumps.append(stamp_to_seconds(msg.header.stamp))
 
+    def take_collisions(self) -> None:
+        """Take the bumps already delivered before deciding a frame: the simulator publishes a
+        step's collisions before its camera frame, but the executor may hand this node the
+        phosphene frame (which came through the spv node) first; the bump was then felt one frame
+        late and the graph trial parted from the quick trial (issue 33)."""
+        sub = self._collisions
+        while True:
+            try:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+            except SHUTDOWN_ERRORS as exc:          # a destroyed handle at shutdown: nothing to take
+                if during_shutdown(exc, self.context):
+                    return
+                raise
+            if taken is None:
+                return
+            self.on_collision(taken[0])
+
     def _felt(self, t: float) -> bool:
         """Whether the body bumped into something during this trial up to the frame at sim time ``t``."""
         felt = [s for s in self._bumps if s <= t + 1e-6]
@@ -165,6 +190,7 @@ class SubjectNode(RaspvNode):
     def on_frame(self, msg: PhospheneFrame) -> None:
         command = Command(0.0, 0.0, math.radians(self.params["head_pitch_deg"]))   # standing, head held
         t = msg.source_stamp.sec + 1e-9 * msg.source_stamp.nanosec
+        self.take_collisions()
         bumped = self._felt(t)
         if self.policy is not None and msg.map_id == self.layout.map_id and t > self.after + 1e-6:
             brightness = np.asarray(msg.brightness, dtype=float)
@@ -173,7 +199,7 @@ class SubjectNode(RaspvNode):
                 self.policy.show(msg.mode, msg.overlays)
                 if bumped:                          # touch, as quick_trial: before the frame's decision
                     self.policy.touch()
-                command = self.policy.act(brightness, t)
+                command = self.policy.act(brightness, self.clock.at(t) if self.after >= 0 else t)
         self.frames += 1
         if t > self.after + 1e-6:
             if self.gaze is None and self.params["gaze"] != "none":

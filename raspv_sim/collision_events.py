@@ -41,13 +41,17 @@ class CollisionMonitor:
         self.count = 0
         self._last_touch: dict[str, float] = {}
 
-    def update(self, t: float, touches: list[Touch], speed: float) -> list[CollisionEvent]:
-        """Contacts of the step at time ``t``; returns the events for contacts that just began."""
+    def update(self, t: float, touches: list[Touch], speed: float, clock: float | None = None) -> list[CollisionEvent]:
+        """Contacts of the step at time ``t``; returns the events for contacts that just began.
+        ``clock`` [s] (default ``t``) is the time the debounce is measured on: the simulator gives
+        its trial clock, so whether a touch exactly ``debounce_s`` after the last is new does not
+        depend on the absolute time the trial started at (float rounding)."""
+        now = t if clock is None else clock
         events = []
         for touch in touches:
             last = self._last_touch.get(touch.name)
-            if last is None or t - last > self.debounce_s:
+            if last is None or now - last > self.debounce_s:
                 self.count += 1
                 events.append(CollisionEvent(t, touch.name, touch.cls, touch.position, touch.normal, float(speed), self.count))
-            self._last_touch[touch.name] = t
+            self._last_touch[touch.name] = now
         return events

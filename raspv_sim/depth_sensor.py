@@ -15,6 +15,7 @@ Missing pixels are NaN.
 """
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
 import cv2
@@ -57,9 +58,17 @@ class DepthSensorModel:
     def __init__(self, config: DepthSensorConfig, fx: float, seed: int | None = 0):
         self.config = config
         self.fx = float(fx)
+        self.seed = seed
         self.rng = np.random.default_rng(seed)
         w = int(config.edge_width)
         self._kernel = np.ones((2 * w + 1, 2 * w + 1), np.uint8) if w > 0 else None
+
+    def start_trial(self, x: float, y: float, yaw: float) -> None:
+        """A trial starts at (x, y) [m, W] facing ``yaw`` [rad]: the noise restarts from the seed
+        and that pose, so a trial's noise does not depend on the frames rendered before it (a
+        graph that ran earlier trials or rendered while holding, a resumed session, a quick trial)."""
+        pose = zlib.crc32(f"{x:.4f},{y:.4f},{yaw:.5f}".encode())
+        self.rng = np.random.default_rng(None if self.seed is None else [int(self.seed), pose])
 
     def apply(self, depth: np.ndarray, rgb: np.ndarray | None = None, specular: np.ndarray | None = None) -> np.ndarray:
         """``depth`` (H, W) float32 m (NaN = none), ``rgb`` (H, W, 3) uint8, ``specular`` (H, W)

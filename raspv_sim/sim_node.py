@@ -285,6 +285,11 @@ class SimNode(SimGazeLog, RaspvNode):
         self.pub_clock.publish(Clock(clock=self.header("", self.sim.t).stamp))
         header = self.header(self.params["frame_id"], stamp)
         self.camera_info.header = header
+        world_header = self.header(frames.MAP)
+        world_header.stamp = header.stamp
+        for event in report.collisions:                  # before the images: felt with this frame's decision
+            self.pub_collisions.publish(self.collision_msg(event, world_header))
+            self.get_logger().info(f"collision #{event.count} with {event.cls} '{event.name}' at {event.speed:.2f} m/s")
         self.pub_info.publish(self.camera_info)          # before the images: a node's first image finds it
         self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
         self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))
@@ -294,14 +299,9 @@ class SimNode(SimGazeLog, RaspvNode):
             self.get_logger().info(f"first camera frame published, stamp {h.sec + 1e-9 * h.nanosec:.6f}")
         if frame.labels is not None:
             self.pub_labels.publish(array_to_image(frame.labels, "mono8", header))
-        world_header = self.header(frames.MAP)
-        world_header.stamp = header.stamp
         self.publish_tf(header.stamp)
         self.pub_pose.publish(PoseStamped(header=world_header, pose=matrix_to_pose(frame.world_from_camera)))
         self.pub_odom.publish(self.odometry(Header(stamp=header.stamp, frame_id=frames.ODOM)))
-        for event in report.collisions:
-            self.pub_collisions.publish(self.collision_msg(event, world_header))
-            self.get_logger().info(f"collision #{event.count} with {event.cls} '{event.name}' at {event.speed:.2f} m/s")
         for name in report.goals_reached:
             self.get_logger().info(f"goal '{name}' reached at t = {report.t:.1f} s")
         t3 = time.monotonic()

@@ -108,6 +108,7 @@ class Simulation:
         self.goals_reached: dict[str, float] = {}
         self.trial_goals: tuple[GoalSpec, ...] = ()       # goals of the current trial (start_trial)
         self.people_t0 = 0.0                              # people walk from where they were at this time
+        self.trial_t = 0.0                                # s since people_t0, summed step by step (the trial clock)
         self.log: ExperimentLog | None = None
 
     def start_trial(self, x: float, y: float, yaw: float, goals: tuple[GoalSpec, ...] = ()) -> None:
@@ -124,15 +125,17 @@ class Simulation:
         problem = self.avatar.placement_problem()
         if problem:
             self.avatar.teleport(*old)
-            self.world.update_people(self.t - self.people_t0)
+            self.world.update_people(self.trial_t)
             raise ValueError(f"the avatar at ({x:.2f}, {y:.2f}) {problem}")
         self.avatar.set_head((0.0, 0.0, 0.0, 1.0))
         self.avatar.path_length = 0.0
         self.linear = self.angular = 0.0
-        self.people_t0 = self.t
+        self.people_t0, self.trial_t = self.t, 0.0
         self.monitor = CollisionMonitor(self.monitor.debounce_s)
         self.goals_reached = {}
         self.trial_goals = tuple(goals)
+        if self.depth_model is not None:                  # the trial's sensor noise: from the seed and the start
+            self.depth_model.start_trial(x, y, yaw)
 
     def start_log(self, log_dir: str | Path, rate: float = 10.0, extra: dict | None = None,
                   run_name: str | None = None) -> ExperimentLog:
@@ -179,7 +182,8 @@ class Simulation:
         if not (dt >= 0 and math.isfinite(dt)):
             raise ValueError(f"time step must be a non-negative number of seconds, got {dt}")
         self.t += dt
-        self.world.update_people(self.t - self.people_t0)
+        self.trial_t += dt          # summed from the trial's start, so the same in a graph and a quick trial
+        self.world.update_people(self.trial_t)
         a = self.avatar.config
         self.linear = max(-a.max_linear, min(a.max_linear, float(linear)))
         self.angular = max(-a.max_angular, min(a.max_angular, float(angular)))
@@ -194,7 +198,7 @@ class Simulation:
             sign = 1.0 if self.linear >= 0 else -1.0
             touches.append(Touch(DROP_NAME, DROP_CLASS, (self.avatar.x, self.avatar.y, self.avatar.z),
                                  (-sign * math.cos(yaw), -sign * math.sin(yaw), 0.0)))
-        report = StepReport(self.t, result.distance, self.monitor.update(self.t, touches, abs(self.linear)))
+        report = StepReport(self.t, result.distance, self.monitor.update(self.t, touches, abs(self.linear), self.trial_t))
         for goal in (*self.spec.goals, *self.trial_goals):
             if goal.name not in self.goals_reached and math.hypot(self.avatar.x - goal.position[0],
                                                                    self.avatar.y - goal.position[1]) <= goal.radius:

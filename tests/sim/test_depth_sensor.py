@@ -57,3 +57,23 @@ def test_off_by_default_and_applied_when_configured():
     both = np.isfinite(perfect) & np.isfinite(noisy)
     assert np.isnan(noisy).sum() > np.isnan(perfect).sum()
     assert 0 < np.abs(noisy[both] - perfect[both]).mean() < 0.05
+
+
+def test_a_trials_noise_depends_on_the_seed_and_its_start_not_on_the_frames_before():
+    """Before, the noise was one stream from the simulator's creation: a graph that had rendered
+    other trials (or frames while holding) gave a trial other noise than a quick trial of it."""
+    def trial_depth(frames_before: int, start=(1.0, 1.5, 0.0), seed=0):
+        config = SimConfig(width=80, height=60, renderer="tiny", depth_sensor=DepthSensorConfig(), seed=seed)
+        with Simulation("apartment", config) as sim:
+            for _ in range(frames_before):
+                sim.step(0.1)
+                sim.render(labels=False)
+            sim.start_trial(*start)
+            sim.step(0.1)
+            return sim.render(labels=False).depth
+
+    fresh = trial_depth(0)
+    np.testing.assert_array_equal(trial_depth(3), fresh)                 # NaN where NaN, the same noise
+    for other in (trial_depth(0, seed=1), trial_depth(0, start=(1.0, 1.5, 0.001))):
+        both = np.isfinite(other) & np.isfinite(fresh)
+        assert np.abs(other[both] - fresh[both]).max() > 0                  # another seed or start: other noise
