@@ -30,6 +30,17 @@ def test_step_send_times_are_the_jumps_in_yaw():
     assert list(times) == [0.04, 0.08] and np.allclose(yaws, [40.0, 0.0])
 
 
+def test_bench_splits_steps_by_whether_the_head_had_looked_there_before():
+    """`bench e2e` reports half-way to the new view for steps back to a direction already shown
+    (the spv's view memory can fill them) apart from steps to one never shown."""
+    from raspv_bench.e2e import _by_direction_seen
+    from raspv_bench.motion_latency import StepResult
+
+    results = [StepResult(t, 5.0) for t in (1.0, 2.5, 4.0)]          # the 5.5 s step skipped (views alike)
+    seen, new = _by_direction_seen(results, [300.0, 20.0, 25.0], [1.0, 2.5, 4.0, 5.5], [40.0, 0.0, 40.0, 0.0])
+    assert seen == [20.0, 25.0] and new == [300.0]                      # 0° held in the warm-up, 40° first at 1.0 s
+
+
 def patterns():
     """Two views that share most of their light, like two walls: the same dim phosphenes
     everywhere, bright ones on the left (before the turn) or on the right (after)."""
