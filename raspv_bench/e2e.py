@@ -401,7 +401,10 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     spv = re.search(r"spv: (\d+) display frames, (\d+) dropped, tick median ([\d.]+) ms", g.output)
     if spv:
         n, d = int(spv.group(1)), int(spv.group(2))
-        print(f"  spv display: {n} frames, {d} dropped ({100 * d / max(1, n + d):.2f} %), tick median {spv.group(3)} ms")
+        turned = re.search(r"(\d+) re-projected to a turned head \((\d+) filled from remembered views\)", g.output)
+        filled = f"; {turned.group(1)} re-projected, {turned.group(2)} of them filled from views seen before" if turned else ""
+        print(f"  spv display: {n} frames, {d} dropped ({100 * d / max(1, n + d):.2f} %), tick median {spv.group(3)} ms"
+              f"{filled}")
     loads = RunningGraph.cpu_share(cpu0, cpu1, wall)
     if loads:
         print(f"  CPU while stepping (of one core): {loads}; {RunningGraph.machine_share(ticks0, ticks1)}")
