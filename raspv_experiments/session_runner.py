@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from raspv_bringup.graph import Graph, NodeEntry
-from raspv_bringup.supervisor import Supervisor, _die_with_parent
+from raspv_bringup.supervisor import Supervisor, stop_with_parent
 from raspv_common.shown_share import ShownFrame, shown_share
 from raspv_experiments.design import PlannedTrial, plan_session, subject_number
 from raspv_experiments.gaze_metrics import trial_gaze_metrics
@@ -511,7 +511,9 @@ class SessionRunner:
         topics = [t for t in self.protocol.record.bag_topics if self.client.node.count_publishers(t)]
         before = {t: self.client.node.count_subscribers(t) for t in topics}
         proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                env=os.environ.copy(), start_new_session=True, preexec_fn=_die_with_parent)
+                                env=os.environ.copy(), start_new_session=True, preexec_fn=stop_with_parent)
+        # (not the nodes' _die_with_parent: it leaves SIGINT blocked for node_entry to unblock, and the
+        # recorder never does — _stop_bag's SIGINT stayed pending until its 20 s kill, bag unfinished)
         # every topic that has a publisher gets the recorder's subscription before the trial starts
         deadline = time.monotonic() + BAG_START_S
         while any(self.client.node.count_subscribers(t) <= n for t, n in before.items()):

@@ -81,4 +81,6 @@ def test_pause_repeat_skip_and_bags(tmp_path, ros_domain):
     assert events == ["started", "repeated", "skipped", "finished"]
     bag = runner.folder.root / "trials" / "001-depth-hallway-r1-a2" / "bag"
     assert bag.is_dir() and any(bag.iterdir()), "a bag per trial"
+    for log in sorted((runner.folder.root / "trials").glob("*/bag.log")):     # each recorder stopped by its SIGINT,
+        assert " messages over " in log.read_text(), log.read_text()[-2000:]     # its summary printed (not killed)
     assert records[1]["bag"] == str(bag)
