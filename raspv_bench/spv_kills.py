@@ -11,8 +11,13 @@ a 1.04 s freeze), kills the spv process, and measures from the kill
   is faster), by its stamp (when it was made: a client that lags on a loaded machine receives
   it later, by ``lag``, the client's delay behind the frames' stamps before the kill),
 - ``gap``: the longest time the client went without any frame, from 0.5 s before the kill to
-  0.5 s after the new process's first frame (shifted by ``lag``),
+  0.5 s after the new process's first frame with camera content (shifted by ``lag``; until then
+  the new process may stall computing its first depth frame),
 - ``back``: the new process's first frame (at the probe),
+- ``made gap``: the longest time between the stamps of the frames the client got in that window
+  (when they were made; a gap only in ``gap`` is the client's own lateness on a loaded machine),
+- ``spv gap``: the longest time between the new spv process's own frames (their stamps, at the
+  probe) in that window: a stall while it starts, which the bridge's ring must fill,
 
 and what the bridge said: its "no frames from the spv node (… its node gone)" line, the verdict
 the ring followed. Figures under load are noisy; the load average is printed with them.
@@ -43,6 +48,8 @@ class KillFigures:
     gap_s: float            # the client's longest time without a frame around the kill
     back_s: float           # kill → the new spv process's first frame (at the probe)
     gap_at_s: float = 0.0   # kill → the start of that longest gap (the client's receipt, less its lag)
+    spv_gap_s: float = 0.0  # the longest time between the new spv process's frames in the gap's window
+    made_gap_s: float = 0.0  # the longest time between the stamps of the frames the client got (made, not received)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -107,6 +114,7 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
 
     from raspv_bringup.testing import Probe, RunningGraph
     from raspv_common import topics
+    from raspv_spv import staleness
 
     probe = Probe("bench_spv_kills")
     g = RunningGraph(graph_spec(), Path(tempfile.mkdtemp(prefix="raspv-bench-spv-kills-")))
@@ -126,8 +134,12 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
             os.kill(pid, signal.SIGKILL)
             back = frames.wait(1, timeout=timeout, predicate=lambda m: _stamp(m.header.stamp) > t_kill)[0]
             t_back = _stamp(back.header.stamp)
+            # its first frame with camera content: until then it may still stall (its first depth frame)
+            content = frames.wait(1, timeout=timeout, predicate=lambda m: _stamp(m.header.stamp) > t_kill
+                                  and m.mode != staleness.NO_DATA)[0]
+            t_end = _stamp(content.header.stamp) + SETTLE_S
             deadline = time.monotonic() + timeout
-            while not any(stamp > t_back + SETTLE_S for _, stamp in list(watcher.frames)):
+            while not any(stamp > t_end for _, stamp in list(watcher.frames)):
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"the watcher got no frame after the restart ({watcher.error!r})")
                 time.sleep(0.05)
@@ -135,11 +147,16 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
             ring = min(stamp for _, stamp in got if stamp > t_kill) - t_kill
             before = [r - stamp for r, stamp in got if t_kill - 1.0 <= stamp < t_kill]
             lag = statistics.median(before) if before else 0.0
-            window = [r for r, _ in got if t_kill + lag - SETTLE_S <= r <= t_back + lag + SETTLE_S]
+            window = [r for r, _ in got if t_kill + lag - SETTLE_S <= r <= t_end + lag]
             gap, gap_from = max((b - a, a) for a, b in zip(window, window[1:]))
-            out.append(KillFigures(ring, lag, gap, t_back - t_kill, gap_from - lag - t_kill))
+            own = sorted(s for m in list(frames.messages) if t_back <= (s := _stamp(m.header.stamp)) <= t_end)
+            spv_gap = max((b - a for a, b in zip(own, own[1:])), default=0.0)
+            made = sorted(stamp for _, stamp in got if t_kill - SETTLE_S <= stamp <= t_end)
+            made_gap = max(b - a for a, b in zip(made, made[1:]))
+            out.append(KillFigures(ring, lag, gap, t_back - t_kill, gap_from - lag - t_kill, spv_gap, made_gap))
             report(f"  kill {k + 1:>2}: ring after {ring * 1e3:4.0f} ms (client lag {lag * 1e3:3.0f} ms), longest gap "
-                   f"{gap * 1e3:4.0f} ms from {(gap_from - lag - t_kill) * 1e3:+5.0f} ms, "
+                   f"{gap * 1e3:4.0f} ms from {(gap_from - lag - t_kill) * 1e3:+5.0f} ms (by the stamps "
+                   f"{made_gap * 1e3:4.0f} ms; the new spv's own {spv_gap * 1e3:4.0f} ms), "
                    f"new spv's first frame after {t_back - t_kill:.2f} s (load {os.getloadavg()[0]:.1f})")
             with frames._cond:
                 frames.messages.clear()
@@ -185,8 +202,11 @@ def run(args: argparse.Namespace) -> int:
     figures, output = kill_spv(args.kills, args.timeout)
     rings = [f.ring_s * 1e3 for f in figures]
     gaps = [f.gap_s * 1e3 for f in figures]
+    own = [f.spv_gap_s * 1e3 for f in figures]
+    made = [f.made_gap_s * 1e3 for f in figures]
     gone = len(re.findall(r"no frames from the spv node \(.*its node gone\)", output))
     print(f"  ring after the kill: median {statistics.median(rings):.0f} ms, max {max(rings):.0f} ms; longest gap "
           f"without frames: median {statistics.median(gaps):.0f} ms, max {max(gaps):.0f} ms (target 300 ms); "
-          f"{gone} of {len(figures)} rings judged 'its node gone'; load average {os.getloadavg()[0]:.1f}")
+          f"{gone} of {len(figures)} rings judged 'its node gone'; longest gap by the stamps of the frames the "
+          f"client got: median {statistics.median(made):.0f} ms, max {max(made):.0f} ms; the new spv's own longest gap: median {statistics.median(own):.0f} ms, max {max(own):.0f} ms; load average {os.getloadavg()[0]:.1f}")
     return 0

@@ -48,6 +48,7 @@ from raspv_spv.sprites_msg import atlas_from_msg
 SPV_INPUT = "phosphenes"          # the spv node's frames, watched like an input
 RING_PERIOD_S = 0.05              # the bridge's own no-data ring: 20 frames/s (it blinks at 2 Hz)
 PROBATION_S = 3.0                 # after the ring: the returning spv node's gaps judged as a crash's for this long [s]
+WATCH_LATE_S = 0.25               # the ring's check this much later than its period is logged (the frame thread held up)
 
 
 class BridgeFrames:
@@ -60,6 +61,7 @@ class BridgeFrames:
         self._ring: tuple[int, NoDataPattern] | None = None   # (map id, pattern)
         self._ring_shown = False
         self._probation_until = float("-inf")              # monotonic time; see PROBATION_S
+        self._watched_at: float | None = None              # the ring check's last run (monotonic)
         self._image_sub = None
         self.spv_frames = staleness.StalenessMonitor(frozenset({SPV_INPUT}))
         self.spv_frames.watch({SPV_INPUT})
@@ -169,6 +171,10 @@ class BridgeFrames:
     # -- the spv node gone: the no-data ring from here ------------------------------------------------
     def _watch_spv(self) -> None:
         now = time.monotonic()
+        if self._watched_at is not None and now - self._watched_at > RING_PERIOD_S + WATCH_LATE_S:
+            self.warn_throttled("watch_late", f"the frame thread was held up: {now - self._watched_at:.2f} s between "
+                                              f"checks of the spv node's frames (every {RING_PERIOD_S:.2f} s)")
+        self._watched_at = now
         producers = self.spv_producer.states()
         on_probation = now < self._probation_until and producers.get(SPV_INPUT) == staleness.ALIVE
         if on_probation:            # a process just back: its gaps are judged alone (see PROBATION_S)

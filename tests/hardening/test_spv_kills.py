@@ -16,8 +16,9 @@ pytestmark = [pytest.mark.integration, pytest.mark.slow]
 KILLS = 5
 TARGET_S = 0.3
 # Margin for a 2-core machine loaded by other test runs: the ring is drawn by a 20 Hz timer of the
-# bridge (50 ms) and the bridge, the spare's start and the client share two cores; measured
-# rings under load 2-6: 130-210 ms. The bug this guards against took 1.04 s.
+# bridge (50 ms) and the bridge, the spare's start and the client (this process, not real-time)
+# share two cores; measured rings under load 2-6: 130-210 ms, 20-kill runs at load 14-36: gaps
+# median 138 ms, a client held up 245 ms by the load alone. The bug this guards against took 1.04 s.
 MARGIN_S = 0.2
 
 
