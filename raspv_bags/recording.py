@@ -22,10 +22,13 @@ if TYPE_CHECKING:
 
 # Infrastructure topics left out of "record everything" (name them to record them).
 DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")
-# The rendered phosphene image (800x800 at 50 Hz: ~32 MB/s, most of a demo recording) is left out
-# too: /spv/frame (each phosphene's brightness), /spv/map and /spv/sprites re-render it exactly
-# (:mod:`raspv_bags.shown_render`). Name it, or pass ``images=True`` (``--images``), to record it.
-IMAGE_TOPICS = ("/spv/image",)
+# Images their node renders only while someone subscribes are left out too, since a recorder's
+# subscription makes it render them: the rendered phosphene image (800x800 at 50 Hz: ~32 MB/s,
+# most of a demo recording; /spv/frame, /spv/map and /spv/sprites re-render it exactly,
+# :mod:`raspv_bags.shown_render`) and the simulator's ground-truth labels (their render pass costs
+# the simulator ~45 % more CPU per frame: the demo's camera fell from 5.6-6.6 to 2.8-3.0 Hz at load
+# 24-30 while a recorder took them). Name them, or pass ``images=True`` (``--images``), to record them.
+IMAGE_TOPICS = ("/spv/image", "/sim/labels")
 # MCAP chunks compressed losslessly (raspv_bags.writer): the demo's camera streams 29 → 1.3 MB/s
 DEFAULT_COMPRESSION = "zstd"
 
@@ -34,11 +37,11 @@ DEFAULT_COMPRESSION = "zstd"
 class TopicSelection:
     """Which discovered topics to record: ``topics`` (names or shell patterns such as
     ``/camera/*``; empty = all but :data:`DEFAULT_EXCLUDED`) minus ``exclude`` (names or
-    patterns). The rendered image (:data:`IMAGE_TOPICS`) only when named or with ``images``."""
+    patterns). The images rendered on demand (:data:`IMAGE_TOPICS`) only when named or with ``images``."""
 
     topics: tuple[str, ...] = ()
     exclude: tuple[str, ...] = ()
-    images: bool = False          # record the rendered phosphene image (IMAGE_TOPICS) with everything
+    images: bool = False          # record the images rendered on demand (IMAGE_TOPICS) with everything
 
     def wants(self, name: str) -> bool:
         if any(fnmatch.fnmatchcase(name, p) for p in self.exclude):

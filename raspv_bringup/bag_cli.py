@@ -36,14 +36,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     rec = sub.add_parser("record", help="record topics of the running graph into a bag",
                          description="Record topics of the running graph. Without TOPICS: every topic "
-                                     "(except /rosout, /parameter_events) but the rendered phosphene image "
-                                     "/spv/image, which /spv/frame, /spv/map and /spv/sprites re-render "
-                                     "(raspv render BAG --shown); --images or naming /spv/image records it.")
+                                     "(except /rosout, /parameter_events) but the images their node renders only for a "
+                                     "subscriber: the phosphene image /spv/image, which /spv/frame, /spv/map and "
+                                     "/spv/sprites re-render (raspv render BAG --shown), and the simulator's "
+                                     "/sim/labels; --images or naming them records them.")
     rec.add_argument("topics", nargs="*", metavar="TOPIC", help="topic names or patterns like '/camera/*'")
     rec.add_argument("-o", "--output", metavar="DIR", help="bag directory to create (default rosbag2_<date>)")
     rec.add_argument("-x", "--exclude", nargs="+", default=[], metavar="TOPIC", help="topics/patterns to leave out")
     rec.add_argument("--images", action="store_true",
-                     help="also record the rendered phosphene image /spv/image (~30 MB/s at 800x800, 50 Hz)")
+                     help="also record the images rendered only for a subscriber: /spv/image (800x800 at 50 Hz; "
+                          "spv then renders it) and /sim/labels (the simulator then renders them)")
     rec.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
     rec.add_argument("--compression", choices=("zstd", "lz4", "none"), default=None,
                      help="lossless compression of the MCAP chunks, which every MCAP reader undoes (default zstd; "

@@ -151,11 +151,13 @@ def test_a_recorder_started_on_a_running_graph_captures_from_its_first_second(gr
 
 def test_the_rendered_image_is_recorded_only_when_asked():
     """Issue 36: /spv/image (800x800 at 50 Hz) made a demo recording 50-120 MB/s. By default it is
-    left out; the frames, the map and the sprites that re-render it stay."""
+    left out; the frames, the map and the sprites that re-render it stay. /sim/labels too: the
+    simulator renders them only for a subscriber (a recorder's lowered the camera rate)."""
     default = TopicSelection()
     assert all(default.wants(t) for t in (T.SPV_FRAME, T.SPV_MAP, T.SPV_SPRITES, T.SPV_STATUS, T.COLOR, T.DEPTH))
-    assert not default.wants(T.SPV_IMAGE)
+    assert not default.wants(T.SPV_IMAGE) and not default.wants(T.SIM_LABELS)    # rendered for a subscriber only
     assert TopicSelection(images=True).wants(T.SPV_IMAGE) and TopicSelection((T.SPV_IMAGE,)).wants(T.SPV_IMAGE)
+    assert TopicSelection(images=True).wants(T.SIM_LABELS) and TopicSelection(("/sim/*",)).wants(T.SIM_CLASSES)
     spv = TopicSelection(("/spv/*",))
     assert spv.wants(T.SPV_FRAME) and not spv.wants(T.SPV_IMAGE)
     assert T.SPV_IMAGE not in {n for n, _, _ in known_topics(default.wants)}
