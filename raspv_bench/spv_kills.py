@@ -112,6 +112,7 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
     name in it)."""
     from raspv_msgs.msg import PhospheneFrame
 
+    from raspv_bringup.supervisor import MAX_RESTARTS, RESTART_WINDOW_S
     from raspv_bringup.testing import Probe, RunningGraph
     from raspv_common import topics
     from raspv_spv import staleness
@@ -126,9 +127,13 @@ def kill_spv(kills: int, timeout: float = 90.0, report=print) -> tuple[list[Kill
         url = g.wait_for_output(r"open (http://127\.0\.0\.1:\d+/) in a browser", timeout=timeout).group(1)
         watcher = Watcher(url)
         watcher.wait_frames(2 * int(SPV_RATE_HZ), timeout)          # 2 s of frames: the periods are learnt
+        killed_at: list[float] = []
         for k in range(kills):
             g.wait_for_lines(r"^\[spv\] startup: imports done", 2 + k, timeout)   # its warm spare is ready
             time.sleep(1.0 + SETTLE_S)        # (the spare's imports compete for the CPU; frames flow again)
+            if len(killed_at) >= MAX_RESTARTS:  # the launcher gives up after more restarts than that in its window
+                time.sleep(max(0.0, killed_at[-MAX_RESTARTS] + RESTART_WINDOW_S + 1.0 - time.monotonic()))
+            killed_at.append(time.monotonic())
             pid = g.pid_of("spv")
             t_kill = time.time()
             os.kill(pid, signal.SIGKILL)
