@@ -99,7 +99,8 @@ def test_broken_yaml_and_missing_file_are_one_line(write_protocol, tmp_path):
 
 # Shipped protocols that compare representations but still run noise-free depth, and why.
 NOISE_FREE_MODE_COMPARISONS = {
-    "office_navigation": "its documented rows (docs/experiments.md) were run noise-free and not re-run yet",
+    "office_navigation": "re-run with realistic depth by a sweep override (docs/experiments.md); its regression "
+                         "test has not run with it yet",
 }
 
 
