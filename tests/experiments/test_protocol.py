@@ -98,10 +98,7 @@ def test_broken_yaml_and_missing_file_are_one_line(write_protocol, tmp_path):
 
 
 # Shipped protocols that compare representations but still run noise-free depth, and why.
-NOISE_FREE_MODE_COMPARISONS = {
-    "office_navigation": "re-run with realistic depth by a sweep override (docs/experiments.md); its regression "
-                         "test has not run with it yet",
-}
+NOISE_FREE_MODE_COMPARISONS: dict[str, str] = {}
 
 
 def test_protocols_that_compare_modes_run_realistic_depth_by_default():
