@@ -68,6 +68,10 @@ class SlamMap:
                      parent_from_kf: np.ndarray | None = None, transient: bool = False) -> None:
         with self.lock:
             self.keyframes[kf.id] = kf
+            if parent is not None and parent_from_kf is not None and not transient and parent in self._poses:
+                # placed on its parent as the map holds it now: a loop correction applied since
+                # the caller read the parent's pose must not leave the new keyframe behind
+                slam_from_kf = self._poses[parent] @ np.asarray(parent_from_kf, dtype=np.float64)
             self._poses[kf.id] = np.array(slam_from_kf, dtype=np.float64)
             self._next_id = max(self._next_id, kf.id + 1)
             if transient:
@@ -99,6 +103,11 @@ class SlamMap:
         """S ← K of a keyframe (a copy)."""
         with self.lock:
             return self._poses[kf_id].copy()
+
+    def relative(self, a: int, b: int) -> np.ndarray:
+        """A ← B of two keyframes, both poses read at once (not across a loop correction)."""
+        with self.lock:
+            return inverse(self._poses[a]) @ self._poses[b]
 
     def poses(self) -> dict[int, np.ndarray]:
         with self.lock:

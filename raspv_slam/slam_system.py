@@ -122,7 +122,7 @@ class SlamSystem:
         if ref_from_camera is None and self._last_tracked is not None:
             # fast motion took the view too far from the keyframe: register to the last tracked frame
             last, last_ref, last_ref_from_last = self._last_tracked
-            ref_from_last = inverse(self.map.pose(self.ref)) @ self.map.pose(last_ref) @ last_ref_from_last
+            ref_from_last = self.map.relative(self.ref, last_ref) @ last_ref_from_last
             reg = self.registrar.register(frame, last, predicted_target_from_source=inverse(ref_from_last) @ predicted)
             if reg.ok:
                 ref_from_camera = ref_from_last @ reg.target_from_source
@@ -176,10 +176,9 @@ class SlamSystem:
             usable = [(f.sharpness, i) for i, (f, ref, _) in enumerate(self._recent) if ref == self.ref and f.has_depth]
         if not usable:
             return
-        best, ref, ref_from_best = self._recent[max(usable)[1]]
-        slam_from_best = self.map.pose(ref) @ ref_from_best
-        self.ref = self._add_keyframe(best, slam_from_best, ref, ref_from_best)
-        self.ref_from_camera = inverse(slam_from_best) @ slam_from_camera
+        best, ref, ref_from_best = self._recent[max(usable)[1]]      # ref is self.ref
+        self.ref = self._add_keyframe(best, self.map.pose(ref) @ ref_from_best, ref, ref_from_best)
+        self.ref_from_camera = inverse(ref_from_best) @ self.ref_from_camera    # relative: no map pose read
         self._recent.clear()
 
     def _view_overlap(self, kf_id: int, kf_from_camera: np.ndarray) -> float:
