@@ -65,13 +65,15 @@ class SlamMap:
             return self._next_id - 1
 
     def add_keyframe(self, kf: Keyframe, slam_from_kf: np.ndarray, parent: int | None = None,
-                     parent_from_kf: np.ndarray | None = None, transient: bool = False) -> None:
+                     parent_from_kf: np.ndarray | None = None, transient: bool = False,
+                     parent_pose_seen: np.ndarray | None = None) -> None:
+        """``parent_pose_seen``: the parent's S ← K the caller composed ``slam_from_kf`` with; a
+        loop correction applied since then moves the new keyframe with its parent (it must not
+        be left at the stale pose)."""
         with self.lock:
             self.keyframes[kf.id] = kf
-            if parent is not None and parent_from_kf is not None and not transient and parent in self._poses:
-                # placed on its parent as the map holds it now: a loop correction applied since
-                # the caller read the parent's pose must not leave the new keyframe behind
-                slam_from_kf = self._poses[parent] @ np.asarray(parent_from_kf, dtype=np.float64)
+            if parent_pose_seen is not None and parent in self._poses:
+                slam_from_kf = self._poses[parent] @ inverse(parent_pose_seen) @ np.asarray(slam_from_kf, np.float64)
             self._poses[kf.id] = np.array(slam_from_kf, dtype=np.float64)
             self._next_id = max(self._next_id, kf.id + 1)
             if transient:

@@ -177,7 +177,8 @@ class SlamSystem:
         if not usable:
             return
         best, ref, ref_from_best = self._recent[max(usable)[1]]      # ref is self.ref
-        self.ref = self._add_keyframe(best, self.map.pose(ref) @ ref_from_best, ref, ref_from_best)
+        seen = self.map.pose(ref)
+        self.ref = self._add_keyframe(best, seen @ ref_from_best, ref, ref_from_best, parent_pose_seen=seen)
         self.ref_from_camera = inverse(ref_from_best) @ self.ref_from_camera    # relative: no map pose read
         self._recent.clear()
 
@@ -211,7 +212,7 @@ class SlamSystem:
         return TrackingState.RELOCALISED, found[1].inliers
 
     def _add_keyframe(self, frame: Frame, slam_from_camera: np.ndarray, parent: int | None,
-                      parent_from_kf: np.ndarray | None) -> int:
+                      parent_from_kf: np.ndarray | None, parent_pose_seen: np.ndarray | None = None) -> int:
         color, depth = encode_images(frame.small_rgb, frame.small_depth)
         kf = Keyframe(self.map.new_id(), frame.stamp, frame.features, color, depth)
         if self.localisation_only:
@@ -221,7 +222,7 @@ class SlamSystem:
             keep = {parent} | ({self._last_tracked[1]} if self._last_tracked is not None else set())
             self.map.prune_transient(TRANSIENT_KEYFRAMES, keep=keep)
             return kf.id
-        self.map.add_keyframe(kf, slam_from_camera, parent, parent_from_kf)
+        self.map.add_keyframe(kf, slam_from_camera, parent, parent_from_kf, parent_pose_seen=parent_pose_seen)
         self.loop_closer.submit(kf.id)
         return kf.id
 

@@ -73,7 +73,8 @@ def test_a_wrong_loop_edge_is_rejected_and_the_right_ones_kept():
 def test_a_keyframe_added_after_a_loop_correction_lands_on_its_corrected_parent():
     """The tracker reads its reference's pose, then adds a keyframe; the background loop closer
     may correct the map in between. The new keyframe is placed on its parent as the map holds it
-    at insertion (before: at the stale absolute pose, left behind by the correction)."""
+    at insertion (before: at the stale absolute pose, left behind by the correction); without a
+    correction in between, the pose given is kept."""
     from raspv_slam.config import SlamConfig
     from raspv_slam.keyframe import Keyframe
     from raspv_slam.features import Features
@@ -89,13 +90,16 @@ def test_a_keyframe_added_after_a_loop_correction_lands_on_its_corrected_parent(
     step = inverse(pose(0, 0, 0)) @ pose(0.5, 0.0, 10.0)
     m.add_keyframe(kf(0), np.eye(4))
     m.add_keyframe(kf(1), step, 0, step)
-    stale = m.pose(1) @ step                                   # what the tracker read before the correction
+    seen = m.pose(1)                                           # what the tracker read before the correction
+    stale = seen @ step
     correction = inverse(pose(0, 0, 0)) @ pose(0.0, 0.2, 5.0, z=1.7)
     m.apply_correction({0: correction, 1: correction @ step}, closed_loop=True)
-    m.add_keyframe(kf(2), stale, 1, step)
+    m.add_keyframe(kf(2), stale, 1, step, parent_pose_seen=seen)
     np.testing.assert_allclose(m.pose(2), m.pose(1) @ step, atol=1e-12)
     assert not np.allclose(m.pose(2), stale, atol=1e-3)
     np.testing.assert_allclose(m.relative(1, 2), step, atol=1e-12)
     np.testing.assert_allclose(m.relative(2, 0), inverse(m.pose(2)) @ m.pose(0), atol=1e-12)
     m.add_keyframe(kf(3), stale, transient=True)               # transient keyframes keep the pose given
     np.testing.assert_allclose(m.pose(3), stale)
+    m.add_keyframe(kf(4), m.pose(2) @ step @ step, 2, step, parent_pose_seen=m.pose(2))   # no correction since
+    np.testing.assert_allclose(m.pose(4), m.pose(2) @ step @ step, atol=1e-12)
