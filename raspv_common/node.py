@@ -30,6 +30,7 @@ from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.liveliness import AliveAnnouncement
 from raspv_common.malloc_tuning import keep_freed_buffers
 from raspv_common.params import Param, ParamSchema
+from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.startup_timing import startup_mark
 from raspv_common.thread_priority import BACKGROUND_NICE, lower_process_priority, raise_thread_priority
 
@@ -144,6 +145,18 @@ class RaspvNode(Node):
         if now - self._throttle.get(key, -1e9) >= period_s:
             self._throttle[key] = now
             self.get_logger().warning(message)
+
+    def take_pending(self, sub) -> Any | None:
+        """The next message already waiting on subscription ``sub``, taken now rather than when
+        the executor gets to it; None when none waits or the handle was destroyed at shutdown."""
+        try:
+            with sub.handle:
+                taken = sub.handle.take_message(sub.msg_type, sub.raw)
+        except SHUTDOWN_ERRORS as exc:          # a destroyed handle at shutdown: nothing to take
+            if during_shutdown(exc, self.context):
+                return None
+            raise
+        return None if taken is None else taken[0]
 
     def header(self, frame_id: str, stamp_s: float | None = None) -> Header:
         """A header stamped now (node clock) or at ``stamp_s`` seconds."""

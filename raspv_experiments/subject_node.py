@@ -40,7 +40,6 @@ from raspv_common import topics
 from raspv_common.frames import BASE_LINK
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.node import RaspvNode, run_node
-from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
 from raspv_experiments.scripted_gaze import (GazeModelConfig, GazeScript, displayed_layout_index, load_trace,
@@ -168,18 +167,8 @@ class SubjectNode(RaspvNode):
         step's collisions before its camera frame, but the executor may hand this node the
         phosphene frame (which came through the spv node) first; the bump was then felt one frame
         late and the graph trial parted from the quick trial (issue 33)."""
-        sub = self._collisions
-        while True:
-            try:
-                with sub.handle:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
-            except SHUTDOWN_ERRORS as exc:          # a destroyed handle at shutdown: nothing to take
-                if during_shutdown(exc, self.context):
-                    return
-                raise
-            if taken is None:
-                return
-            self.on_collision(taken[0])
+        while (msg := self.take_pending(self._collisions)) is not None:
+            self.on_collision(msg)
 
     def _felt(self, t: float) -> bool:
         """Whether the body bumped into something during this trial up to the frame at sim time ``t``."""

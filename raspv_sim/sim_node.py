@@ -37,7 +37,6 @@ from raspv_common import frames, topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, matrix_to_pose, stamp_to_seconds
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, LATCHED_QOS, SENSOR_QOS
-from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.tf_messages import StaticTfBroadcaster, TfBroadcaster
 from raspv_sim.avatar import AvatarConfig
 from raspv_sim.collision_events import CollisionEvent
@@ -254,15 +253,9 @@ class SimNode(SimGazeLog, RaspvNode):
         when rendering takes as long as the period (60 Hz, or a loaded machine) every head turn
         would reach the camera one frame late; the executor then finds nothing left to take."""
         for sub in self._commands:
-            try:
-                with sub.handle:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
-            except SHUTDOWN_ERRORS as exc:          # a destroyed handle at shutdown: nothing to take
-                if during_shutdown(exc, self.context):
-                    continue
-                raise
-            if taken is not None:
-                sub.callback(taken[0])
+            msg = self.take_pending(sub)
+            if msg is not None:
+                sub.callback(msg)
 
     # -- the loop -------------------------------------------------------------------------------
     def tick(self, dt: float | None = None, command: tuple[float, float] | None = None):

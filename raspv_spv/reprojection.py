@@ -164,13 +164,8 @@ class ViewTracker:
             if not len(self.head) or not len(self.base):
                 return None
             head_now = self.head.lookup(t1)[:3, :3]
-            latest = self.base.latest()
-            if t1 <= latest.stamp:
-                base1 = self.base.lookup(t1)[:3, :3]
-            else:
-                ahead = min(t1 - latest.stamp, MAX_BASE_EXTRAPOLATION_S)
-                base1 = latest.matrix[:3, :3] @ _yaw_matrix(self._yaw_rate * ahead)
-            position = latest.matrix[:3, 3].copy()
+            base1 = self._base_rotation(t1)
+            position = self.base.latest().matrix[:3, 3].copy()
         return base1 @ head_now @ OPTICAL_IN_HEAD, position
 
     def _base_from_camera(self, t0: float) -> np.ndarray | None:
@@ -186,13 +181,16 @@ class ViewTracker:
         base0 = self.base.lookup_or_none(t0)
         if base0 is None:
             return np.eye(3)
+        return base0[:3, :3].T @ self._base_rotation(t1)
+
+    def _base_rotation(self, t1: float) -> np.ndarray:
+        """R_{W←B} at ``t1``: looked up, or past the newest odometry extrapolated at the base's
+        yaw rate for at most MAX_BASE_EXTRAPOLATION_S (odometry present)."""
         latest = self.base.latest()
         if t1 <= latest.stamp:
-            base1 = self.base.lookup(t1)[:3, :3]
-        else:
-            ahead = min(t1 - latest.stamp, MAX_BASE_EXTRAPOLATION_S)
-            base1 = latest.matrix[:3, :3] @ _yaw_matrix(self._yaw_rate * ahead)
-        return base0[:3, :3].T @ base1
+            return self.base.lookup(t1)[:3, :3]
+        ahead = min(t1 - latest.stamp, MAX_BASE_EXTRAPOLATION_S)
+        return latest.matrix[:3, :3] @ _yaw_matrix(self._yaw_rate * ahead)
 
 
 @dataclass(frozen=True)

@@ -59,24 +59,26 @@ def _wait_for(path: Path, proc: subprocess.Popen, bound: float = 60.0) -> None:
         time.sleep(0.02)
 
 
-def test_a_node_interrupted_while_importing_exits_quietly(tmp_path):
+def _interrupted_while_importing(tmp_path, name: str, source: str) -> tuple[int, str]:
+    """Start node module ``name`` (``source``, which marks when its import began), SIGINT it
+    then: (exit code, output)."""
     marker = tmp_path / "importing"
-    (tmp_path / "slow_import_node.py").write_text(SLOW_IMPORT.format(marker=str(marker)))
-    proc = _entry(tmp_path, "slow_import_node")
+    (tmp_path / f"{name}.py").write_text(source.format(marker=str(marker)))
+    proc = _entry(tmp_path, name)
     _wait_for(marker, proc)
     proc.send_signal(signal.SIGINT)
     out = proc.communicate(timeout=30)[0]
-    assert proc.returncode == 130 and "Traceback" not in out and "KeyboardInterrupt" not in out, out
+    return proc.returncode, out
+
+
+def test_a_node_interrupted_while_importing_exits_quietly(tmp_path):
+    code, out = _interrupted_while_importing(tmp_path, "slow_import_node", SLOW_IMPORT)
+    assert code == 130 and "Traceback" not in out and "KeyboardInterrupt" not in out, out
 
 
 def test_an_import_error_caused_by_the_interrupt_exits_quietly_and_a_real_one_shows(tmp_path):
-    marker = tmp_path / "importing"
-    (tmp_path / "extension_node.py").write_text(EXTENSION_IMPORT.format(marker=str(marker)))
-    proc = _entry(tmp_path, "extension_node")
-    _wait_for(marker, proc)
-    proc.send_signal(signal.SIGINT)
-    out = proc.communicate(timeout=30)[0]
-    assert proc.returncode == 130 and "Traceback" not in out and "ImportError" not in out, out
+    code, out = _interrupted_while_importing(tmp_path, "extension_node", EXTENSION_IMPORT)
+    assert code == 130 and "Traceback" not in out and "ImportError" not in out, out
     (tmp_path / "broken_node.py").write_text(BROKEN_IMPORT)
     proc = _entry(tmp_path, "broken_node")
     out = proc.communicate(timeout=60)[0]
