@@ -42,6 +42,7 @@ SPV_IMAGE = "/spv/image"                    # sensor_msgs/Image mono8 (or rgb8 g
 SPV_FRAME = "/spv/frame"                    # raspv_msgs/PhospheneFrame
 SPV_MAP = "/spv/map"                        # raspv_msgs/PhospheneMap, transient-local
 SPV_SPRITES = "/spv/sprites"                # raspv_msgs/PhospheneSprites, transient-local: what the levels stream draws with
+HMD_PRESENTATION = "/hmd/presentation"      # std_msgs/String JSON {"fps", "refresh_hz"}: what the wearer's page composited, ~1 Hz
 SPV_STATUS = "/spv/status"                  # std_msgs/String JSON, latched: what the display shows and which inputs are stale
 
 # Transforms (REP 105 tree map → odom → base_link → … → camera optical; raspv_common/frames.py).

@@ -63,6 +63,7 @@ class BridgeNode(BridgeFrames, RaspvNode):
         self.pub_head = self.create_publisher(QuaternionStamped, topics.HEAD_ORIENTATION, COMMAND_QOS)
         self.pub_cmd = self.create_publisher(Twist, topics.CMD_VEL, COMMAND_QOS)
         self.pub_gaze = self.create_publisher(Vector3Stamped, topics.GAZE_DIRECTION, GAZE_QOS)   # every sample kept for recorders
+        self.pub_presentation = self.create_publisher(String, topics.HMD_PRESENTATION, EVENT_QOS)
         self.gaze_clocks: dict[int, SenderClock] = {}            # per client: its eye tracker's timing
         self.spv = ParamClient(self, p["spv_node"])
         self.requests: collections.deque[tuple[int, Callable[[int], None], float]] = collections.deque()
@@ -74,7 +75,7 @@ class BridgeNode(BridgeFrames, RaspvNode):
         self._request_timer = self.create_timer(0.1, self._check_requests)
         self._setup_frames()
         callbacks = Callbacks(on_head_orientation=self.on_head, on_cmd_vel=self.on_cmd_vel, on_key=self.on_key,
-                              on_gaze=self.on_gaze,
+                              on_gaze=self.on_gaze, on_presented=self.on_presented,
                               on_param=self.on_param, on_event=lambda text: self.get_logger().info(text),
                               on_experiment=self.on_experiment, on_clients=self._clients_changed.trigger)
         try:
@@ -110,6 +111,11 @@ class BridgeNode(BridgeFrames, RaspvNode):
     def on_head(self, q: tuple[float, float, float, float], _client_time: float | None) -> None:
         x, y, z, w = q
         self.pub_head.publish(QuaternionStamped(header=self.header(BASE_LINK), quaternion=Quaternion(x=x, y=y, z=z, w=w)))
+
+    def on_presented(self, fps: float, refresh_hz: float | None) -> None:
+        """``/hmd/presentation``: what the wearer's page composited over its last second (the spv
+        node judges its display rate by it, raspv_spv/page_presentation.py)."""
+        self.pub_presentation.publish(String(data=json.dumps({"fps": fps, "refresh_hz": refresh_hz})))
 
     def on_gaze(self, client: int, direction: tuple[float, float, float] | None, client_time: float | None,
                 arrival: float) -> None:

@@ -106,6 +106,16 @@ class Ping:
 
 
 @dataclass(frozen=True)
+class Presented:
+    """What the controlling page composited over its last second: frames/s, and the refresh clock
+    it presents on [Hz] (None: the browser's frame callback). The spv node judges the display
+    rate by it (raspv_spv/page_presentation.py)."""
+
+    fps: float
+    refresh_hz: float | None = None
+
+
+@dataclass(frozen=True)
 class Control:
     want: bool
 
@@ -119,8 +129,8 @@ class Experiment:
 
 
 EXPERIMENT_ACTIONS = ("start", "abort")
-ClientMessage = Hello | Head | Gaze | Twist | Key | SetParam | Ack | Ping | Control | Experiment
-CONTROL_MESSAGES = (Head, Gaze, Twist, Key, SetParam, Experiment)   # only the controlling client may send these
+ClientMessage = Hello | Head | Gaze | Twist | Key | SetParam | Ack | Ping | Presented | Control | Experiment
+CONTROL_MESSAGES = (Head, Gaze, Twist, Key, SetParam, Experiment, Presented)   # only the controlling client may send these
 
 
 def _number(obj: dict, field: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -297,6 +307,10 @@ def parse_client_message(data: str | bytes) -> ClientMessage:
         return Ack(int(_number(obj, "seq", 0, 2**32 - 1)))
     if kind == "ping":
         return Ping(_number(obj, "t"))
+    if kind == "presented":
+        refresh = obj.get("refresh")
+        return Presented(_number(obj, "fps", 0.0, 1000.0),
+                         None if refresh in (None, 0) else _number(obj, "refresh", 1.0, 1000.0))
     if kind == "control":
         want = obj.get("want")
         if not isinstance(want, bool):

@@ -109,6 +109,8 @@ class Callbacks:
     on_event: Callable[[str], None] = _noop                     # connection events, for the log
     on_clients: Callable[[], None] = _noop                      # a client came or went (formats may change)
     on_experiment: Callable[[int, str, str], None] = _noop      # (client id, "start"/"abort", instructions id)
+    # (composited frames/s, refresh clock [Hz] or None) of the controlling page, about once a second
+    on_presented: Callable[[float, float | None], None] = _noop
 
 
 @dataclass
@@ -664,6 +666,10 @@ class HeadsetServer:
             return
         if isinstance(msg, P.Hello):
             raise P.ProtocolError("bad_field", "hello was already received")
+        if isinstance(msg, P.Presented):          # only the wearer's page judges the display rate; others' are dropped
+            if self._arbiter.controller == s.id:
+                self._call(self.callbacks.on_presented, msg.fps, msg.refresh_hz)
+            return
         s.last_active = time.monotonic()
         if self._arbiter.controller != s.id:
             s.ignored += 1

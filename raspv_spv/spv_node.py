@@ -73,6 +73,7 @@ from raspv_spv.display_clock import DisplayClock
 from raspv_spv.spv_node_display import REPORT_PERIOD_S, SpvDisplay
 from raspv_spv.spv_node_gaze import SpvGaze
 from raspv_spv.spv_node_frames import SpvFrames
+from raspv_spv.spv_node_page import SpvPage
 from raspv_spv.frame_inputs import FrameInputs
 from raspv_spv.no_data import NoDataPattern
 from raspv_spv.reprojection import STAMP_TOLERANCE_S as POSE_TOLERANCE_S
@@ -90,7 +91,7 @@ INPUT_TOPICS = {"color": topics.COLOR, "depth": topics.DEPTH, "scene": topics.SC
                 "stairs": topics.STAIRS, "segmentation": topics.SEGMENTATION_LABELS}
 
 
-class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
+class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvPage, SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
         try:
@@ -150,6 +151,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
         self._shown_head: np.ndarray | None = None      # the last head orientation that poked the display
         self._setup_gaze()                              # eye gaze (gaze_mode, raspv_spv.spv_node_gaze)
         self._setup_frames()                            # the phosphene frame in tf, the slam state in /spv/status
+        self._setup_page()                              # the wearer's page's composited rate in the display budget
         self._display_thread = threading.Thread(target=self._display_loop, name="spv-display", daemon=True)
         self._headless_stamp: float | None = None
         if not self.params["headless"]:
@@ -505,8 +507,9 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvReconfiguration, RaspvNode):
         status = {"showing": plan.mode, "overlays": list(plan.overlays), "mode": configured_mode,
                   "stale": sorted(plan.stale), "stale_episodes": self.staleness.episodes,
                   "late_episodes": self.staleness.late_episodes, "producers": dict(sorted(producers.items()))}
-        if getattr(self, "display_costs", None) is not None:
-            status["display"] = self.display_costs          # what the rate costs here (display_budget.rate_costs)
+        display = self.display_status()                 # what the rate costs here, and whether the page keeps it
+        if display is not None:
+            status["display"] = display
         if getattr(self, "localisation", None) is not None:
             status["localisation"] = self.localisation
         try:

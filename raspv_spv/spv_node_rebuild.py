@@ -82,6 +82,8 @@ class SpvReconfiguration:
         verdict = self.display_rate_verdict(merged)     # refused before building what cannot keep the rate
         if verdict is not None and verdict.refuse:
             return verdict.message
+        if "rate" in changes and (refused := self.page_refusal(float(changes["rate"]))):
+            return refused
         try:
             config, phosphene_map = checked_config(merged)
         except _BUILD_ERRORS as exc:

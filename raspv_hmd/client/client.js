@@ -659,7 +659,13 @@
   const STATUS_MS = 250;
   let statusAt = -Infinity;
   function updateStatus(now) {
-    if (now - fpsSince >= 1000) { S.fps = fpsCount * 1000 / (now - fpsSince); fpsCount = 0; fpsSince = now; }
+    if (now - fpsSince >= 1000) {
+      S.fps = fpsCount * 1000 / (now - fpsSince); fpsCount = 0; fpsSince = now;
+      // the wearer's page tells the display what it composited: the spv node refuses a rate the
+      // page cannot keep, with the reason (raspv_spv/page_presentation.py)
+      const refresh = REFRESH_HZ || (xrSession && xrSession.frameRate) || 0;
+      if (S.role === "control" && S.connected) send({ type: "presented", fps: Math.round(S.fps * 100) / 100, refresh });
+    }
     if (now - statusAt < STATUS_MS) return;
     statusAt = now;
     const parts = [];

@@ -20,6 +20,7 @@ class Recorder:
         self.keys: list[tuple[int, str]] = []
         self.params: list[tuple[int, str, Any]] = []
         self.events: list[str] = []
+        self.presented: list[tuple[float, float | None]] = []   # (composited fps, refresh Hz) of the controller's page
         self._cond = threading.Condition()
 
     def _add(self, where: list, item: Any) -> None:
@@ -33,7 +34,8 @@ class Recorder:
                          on_gaze=lambda c, d, t, r: self._add(self.gazes, (c, d, t, r)),
                          on_key=lambda c, k: self._add(self.keys, (c, k)),
                          on_param=lambda c, n, v: self._add(self.params, (c, n, v)),
-                         on_event=lambda text: self._add(self.events, text))
+                         on_event=lambda text: self._add(self.events, text),
+                         on_presented=lambda fps, hz: self._add(self.presented, (fps, hz)))
 
     def wait(self, predicate: Callable[["Recorder"], bool], timeout: float = 10.0) -> None:
         deadline = time.monotonic() + timeout

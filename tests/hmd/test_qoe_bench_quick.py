@@ -44,5 +44,8 @@ def test_the_quick_qoe_bench_measures_the_page_the_graph_and_a_kill():
     m = re.search(r"to the client: ([\d.]+) kB per frame, \d+ kB/s; the same frames as PNG images: "
                   r"([\d.]+) kB per frame", out)
     assert m and 0 < float(m.group(1)) < float(m.group(2)), out        # levels are smaller than PNG images
+    # the page tells the display what it composited: its verdict at the display's rate is in /spv/status
+    assert re.search(r"the page's own verdict at 50 Hz \(its reports over the last 10 s\): (ok|refused), [\d.]+ of 50 "
+                     r"frames/s composited", out), out
     assert re.search(r"head-turn onset with the browser open .*?p50 [\d.]+ ms, p95 [\d.]+ ms", out), out
     assert re.search(r"scene killed with SIGKILL: shown by the display tick \d+ ms later", out), out

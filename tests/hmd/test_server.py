@@ -170,6 +170,29 @@ def test_first_client_controls_others_watch_and_control_passes_on(start_server, 
     assert stats.connections == 3 and stats.refused_total == 0
 
 
+def test_only_the_controlling_page_reports_what_it_composited(start_server, recorder):
+    """The display rate is judged by the wearer's page: a watcher's report is dropped without a
+    reply, the controller's reaches the owner, a report no page can make is refused."""
+    server = start_server()
+
+    async def run():
+        a, _ = await open_ws(server, name="wearer")
+        b, _ = await open_ws(server, name="watcher", role="watch")
+        await b.send(P.client_message("presented", fps=30.0, refresh=90))
+        await a.send(P.client_message("presented", fps=57.6, refresh=90))
+        await a.send(P.client_message("presented", fps=59.0, refresh=0))
+        recorder.wait(lambda r: len(r.presented) == 2)
+        await a.send(P.client_message("presented", fps=-1.0))
+        refused = await next_json(a, "refused")
+        assert refused["code"] == "bad_field" and "fps" in refused["reason"]
+        await b.send(P.client_message("ping", t=1.0))
+        assert (await next_json(b))["type"] == "pong"        # nothing was said to the watcher before its pong
+        for ws in (a, b):
+            await ws.close()
+    asyncio.run(run())
+    assert recorder.presented == [(57.6, 90.0), (59.0, None)]
+
+
 def test_garbage_is_refused_and_counted_while_another_client_keeps_streaming(start_server, recorder):
     server = start_server(max_refused=8)
     received: list[int] = []
