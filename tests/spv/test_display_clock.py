@@ -34,14 +34,16 @@ def _ticks(clock, period, follow, out, n):
 def test_a_poke_ends_the_wait_long_before_the_period():
     clock = DisplayClock()
     times: list[float] = []
-    thread = threading.Thread(target=_ticks, args=(clock, 30.0, True, times, 2))
+    # a 4 s period: the poked frame is held back to the minimum gap (1 s after the first frame);
+    # only the poke can end the wait within the 3 s joined
+    thread = threading.Thread(target=_ticks, args=(clock, 4.0, True, times, 2))
     thread.start()
     while not times:                       # the first frame is due at once
         time.sleep(0.01)
     time.sleep(0.05)
     poked = time.monotonic()
     clock.poke()
-    thread.join(timeout=10.0)              # a 30 s period: only the poke can end this wait
+    thread.join(timeout=3.0)
     assert not thread.is_alive(), "a poke did not wake the display clock"
     assert len(times) == 2 and times[1] >= poked
     clock.stop()
