@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 
 from raspv_common.extras import MissingExtra
@@ -37,6 +38,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+# commands that start a graph: SIGINT stops them from their first line on (see main)
+GRAPH_COMMANDS = frozenset({"launch", "demo"})
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="raspv", description="RASPV: augmented simulated prosthetic vision on ROS 2")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -53,6 +58,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
+    if command in GRAPH_COMMANDS and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        # A shell starts a background job (`raspv launch … &`) with SIGINT ignored, and Python
+        # keeps it so: a `kill -INT` before the launcher's own handler is installed — after
+        # its imports and the graph's checks, seconds on a loaded machine — was lost and the
+        # graph ran on. From here on it is a KeyboardInterrupt (exit 130, nothing started).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         parser = build_parser(command if command in COMMANDS else None)
         args = parser.parse_args(argv)
@@ -67,6 +78,11 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         return 130
+    except ImportError as exc:        # a C extension's import interrupted by an early SIGINT
+        from raspv_bringup.node_entry import interrupted
+        if interrupted(exc):
+            return 130
+        raise
     except BrokenPipeError:  # output piped into `head` & co. that stopped reading
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

@@ -32,7 +32,7 @@ from raspv_common.malloc_tuning import keep_freed_buffers
 from raspv_common.params import Param, ParamSchema
 from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.startup_timing import startup_mark
-from raspv_common.thread_priority import BACKGROUND_NICE, lower_process_priority, raise_thread_priority
+from raspv_common.thread_priority import BACKGROUND_NICE, lower_process_priority, raise_process_priority
 
 
 class ConfigurationError(Exception):
@@ -77,6 +77,9 @@ class RaspvNode(Node):
         self._throttle: dict[str, float] = {}
         self.intrinsics: CameraIntrinsics | None = None   # kept by on_camera_info
         self.exit_code = 0     # set before shutting the context down to make the process exit non-zero
+        # run_node(priority="headset") raises a node's threads to real time once it is built,
+        # unless it does so itself when its real-time work starts (then this is True)
+        self.defers_realtime = False
         for p in self._schema:
             default = list(p.default) if isinstance(p.default, tuple) else p.default
             descriptor = _descriptor(p)
@@ -198,17 +201,17 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     """Run a node until SIGINT/SIGTERM; exit 0 on clean shutdown, 2 on a configuration error,
     or the node's ``exit_code`` when it shut itself down with one. ``priority``: a node on the
     path from the wearer's head to the phosphenes ("headset": spv, bridge) runs real-time where
-    allowed, set before rclpy starts so that its middleware threads inherit it; cameras and the
-    simulator ("source") and perception ("perception") yield to it when the machine is short
-    (``raspv_common.thread_priority``)."""
+    allowed — all its threads, from when it is built, or from when it calls
+    ``raise_process_priority`` itself if it sets ``defers_realtime`` (spv: its display's first
+    frame), so that its start-up does not hold up the headset path of a running graph; cameras
+    and the simulator ("source") and perception ("perception") yield to it when the machine is
+    short (``raspv_common.thread_priority``)."""
     args = list(sys.argv if argv is None else argv)
     keep_freed_buffers()              # before rclpy's threads start allocating (raspv_common.malloc_tuning)
-    if priority == "headset":
-        raise_thread_priority(realtime=True)
-    elif priority in BACKGROUND_NICE:
+    if priority in BACKGROUND_NICE:
         if os.environ.get("RASPV_BACKGROUND_PRIORITY", "on") != "off":     # "off": comparison runs (bench qoe)
             lower_process_priority(BACKGROUND_NICE[priority])
-    elif priority != "normal":
+    elif priority not in ("normal", "headset"):
         raise ValueError(f"priority must be normal, headset, {' or '.join(BACKGROUND_NICE)}, got {priority!r}")
     rclpy.init(args=args)
     startup_mark("rclpy initialised")
@@ -217,6 +220,8 @@ def run_node(node_factory: Callable[[], RaspvNode], argv: Sequence[str] | None =
     try:
         node = node_factory()
         startup_mark("node built")
+        if priority == "headset" and not getattr(node, "defers_realtime", False):
+            raise_process_priority()
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()

@@ -13,6 +13,12 @@ ask for a higher priority, as VR compositors do:
 The processes whose late result is carried (cameras, the simulator, perception, views) lower
 themselves instead (:func:`lower_process_priority`, ``SOURCE_NICE``, ``PERCEPTION_NICE``), which needs no permission.
 
+A headset process starts as a normal process and takes real time only once its real-time work
+runs (:func:`raise_process_priority`: the bridge once built, spv once its display shows its first
+frame from inputs): a replacement spv that built its node and first depth frame at real-time
+priority held the bridge's frame thread up ~0.36 s after a ``kill -9`` (and drove the kernel into
+real-time throttling).
+
 Both need root or CAP_SYS_NICE (or RLIMIT_RTPRIO / RLIMIT_NICE); without them nothing changes and
 the thread runs as before. Threads created afterwards inherit the class and nice value, so
 background work in such a process lowers itself with :func:`lower_thread_priority`.
@@ -36,6 +42,8 @@ HEADSET_RT_PRIORITY = 10     # of 1..99: the processes on the headset path (spv,
 DISPLAY_RT_PRIORITY = 12     # their display and frame-sending threads, ahead of their own other work
 _RESET_ON_FORK = 0x40000000  # SCHED_RESET_ON_FORK (Linux): children start as normal processes
 _AUTOGROUP = "/proc/self/autogroup"
+_TASKS = "/proc/self/task"
+_lowered: set[int] = set()   # native ids of threads that lowered themselves on purpose (not raised with the rest)
 
 
 def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False,
@@ -55,6 +63,40 @@ def raise_thread_priority(nice: int = HEADSET_NICE, realtime: bool = False,
         return True
     except (AttributeError, OSError):
         return False
+
+
+def raise_process_priority(rt_priority: int = HEADSET_RT_PRIORITY, nice: int = HEADSET_NICE) -> int:
+    """Give every normal thread of this process — the middleware's and the executor's, not one
+    that lowered itself (:func:`lower_thread_priority`, :func:`normal_priority`) nor one already
+    real-time — real-time round-robin scheduling at ``rt_priority`` (reset-on-fork), or ``nice``
+    where real time is not allowed; how many threads changed. Threads started afterwards inherit
+    their starter's class, as before."""
+    try:
+        tids = sorted(int(t) for t in os.listdir(_TASKS))
+    except (OSError, ValueError):
+        return 0
+    changed = 0
+    for tid in tids:
+        if tid in _lowered:
+            continue
+        try:
+            if os.sched_getscheduler(tid) & ~_RESET_ON_FORK != os.SCHED_OTHER:
+                continue
+        except (AttributeError, OSError):                # not Linux, or the thread ended
+            continue
+        try:
+            os.sched_setscheduler(tid, os.SCHED_RR | _RESET_ON_FORK, os.sched_param(rt_priority))
+            changed += 1
+            continue
+        except OSError:
+            pass
+        try:
+            if os.getpriority(os.PRIO_PROCESS, tid) > nice:
+                os.setpriority(os.PRIO_PROCESS, tid, nice)
+                changed += 1
+        except OSError:
+            pass
+    return changed
 
 
 def lower_process_priority(nice: int) -> str:
@@ -95,7 +137,9 @@ def session_nice() -> int | None:
 
 def lower_thread_priority(nice: int) -> None:
     """Make the calling thread a normal thread (leaving a real-time class it inherited) with the
-    given ``nice`` value, where allowed (background builds, checks)."""
+    given ``nice`` value, where allowed (background builds, checks); :func:`raise_process_priority`
+    leaves it so."""
+    _lowered.add(threading.get_native_id())
     try:
         if os.sched_getscheduler(0) & ~_RESET_ON_FORK != os.SCHED_OTHER:
             os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
@@ -121,6 +165,7 @@ def normal_priority(nice: int = 0):
     try:
         yield
     finally:
+        _lowered.discard(threading.get_native_id())
         try:
             if policy != os.SCHED_OTHER:
                 os.sched_setscheduler(0, policy | _RESET_ON_FORK, param)

@@ -94,6 +94,9 @@ INPUT_TOPICS = {"color": topics.COLOR, "depth": topics.DEPTH, "scene": topics.SC
 class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvPage, SpvReconfiguration, RaspvNode):
     def __init__(self) -> None:
         super().__init__("spv", PARAMS)
+        # real time from the display's first frame from inputs (_display_loop), not for the start-up
+        # (node, first depth frame: it held a running bridge's frame thread up ~0.36 s)
+        self.defers_realtime = not self.params["headless"]
         try:
             with normal_priority():                 # not ahead of the other nodes starting up
                 self.sim = build_simulator(self.params)

@@ -16,7 +16,8 @@ from sensor_msgs.msg import Image
 
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
-from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_thread_priority
+from raspv_common.startup_timing import startup_mark
+from raspv_common.thread_priority import DISPLAY_RT_PRIORITY, raise_process_priority, raise_thread_priority
 from raspv_msgs.msg import PhospheneFrame, PhospheneMap
 from raspv_spv import staleness
 from raspv_spv.gaze import shift_image
@@ -103,8 +104,10 @@ class SpvDisplay:
     def _display_loop(self) -> None:
         """Call :meth:`tick` every 1/rate s on absolute deadlines, and at once on new content
         when the display follows its input (:mod:`raspv_spv.display_clock`); after a stall it
-        resumes from now (the frames missed are counted as dropped by ``tick``)."""
-        raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)   # where allowed (thread_priority.py)
+        resumes from now (the frames missed are counted as dropped by ``tick``). The process
+        starts as a normal one and takes real-time priority once the first frame computed from
+        inputs is shown (:meth:`_take_realtime_priority`)."""
+        realtime = False
         while self.clock.wait(1.0 / self.params["rate"], self._follows_input()):
             try:
                 self.tick()
@@ -112,6 +115,16 @@ class SpvDisplay:
                 if during_shutdown(exc, self.context):
                     return
                 raise
+            if not realtime and self._first_shown:
+                realtime = True
+                self._take_realtime_priority()
+
+    def _take_realtime_priority(self) -> None:
+        """The display thread ahead of the node's other threads, those ahead of the graph's
+        normal processes, where allowed (``raspv_common.thread_priority``)."""
+        raise_thread_priority(realtime=True, rt_priority=DISPLAY_RT_PRIORITY)
+        raise_process_priority()
+        startup_mark("real-time priority")
 
     def _follows_input(self) -> bool:
         """New content is shown at once: ``display_on_input`` with the temporal model off or

@@ -156,3 +156,35 @@ def test_a_graph_does_not_outlive_the_process_that_started_it(tmp_path, ros_doma
     finally:
         if owner.poll() is None:
             owner.kill()
+
+
+def test_a_launcher_started_with_sigint_ignored_stops_on_an_early_sigint(tmp_path, ros_domain):
+    """A shell starts a background job (`raspv launch g.yaml &`) with SIGINT ignored: a `kill -INT`
+    while the launcher still imported and checked its graph (before its own handler; ~15 s at
+    load 20) was lost, and the graph ran on until SIGTERM. The SIGINT is sent when the launcher
+    has imported the graph module (its import-time line), before it reads the graph file."""
+    import yaml
+    path = tmp_path / "g.yaml"
+    path.write_text(yaml.safe_dump(SOURCE))
+    env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_LOG_DIR": str(tmp_path / "ros_log")}
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "raspv_bringup.cli", "launch", str(path)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env,
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))   # as a shell does
+    try:
+        lines = []
+        for line in proc.stderr:
+            lines.append(line)
+            if line.rstrip().endswith("| raspv_bringup.graph"):
+                break
+        assert lines and lines[-1].rstrip().endswith("raspv_bringup.graph"), "".join(lines[-20:])
+        proc.send_signal(signal.SIGINT)
+        rest = proc.communicate(timeout=60)[1]   # (the bug: it ran on, starting the graph)
+        out = "".join(line for line in lines + rest.splitlines(keepends=True) if not line.startswith("import time:"))
+        # stopped by the interrupt before anything started (130), or — on a machine slow to deliver
+        # the signal — by its own handler, which stops the graph it started (0); never a traceback
+        assert proc.returncode in (0, 130) and "Traceback" not in out, (proc.returncode, out)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(timeout=30)

@@ -50,3 +50,35 @@ def test_a_node_run_from_a_shell_leaves_the_shells_session_alone():
 def test_a_node_never_raises_itself_by_lowering():
     out = _run(SOURCE_NICE, new_session=False, before="import os; os.setpriority(os.PRIO_PROCESS, 0, 15); ")
     assert int(out[1]) == _expected(15)
+
+
+RAISE_CHILD = """
+import os, threading
+from raspv_common.thread_priority import raise_process_priority, lower_thread_priority
+ready, done = threading.Barrier(3), threading.Event()
+def normal():
+    ready.wait(); done.wait()
+def lowered():
+    lower_thread_priority(7); ready.wait(); done.wait()
+threads = [threading.Thread(target=normal), threading.Thread(target=lowered)]
+for t in threads: t.start()
+ready.wait()
+print(raise_process_priority(10))
+for t in threads:
+    print(os.sched_getscheduler(t.native_id) & 0xFF, os.getpriority(os.PRIO_PROCESS, t.native_id))
+print(os.sched_getscheduler(0) & 0xFF)
+done.set()
+"""
+
+
+def test_raising_a_process_raises_its_normal_threads_and_leaves_lowered_ones_lowered():
+    out = subprocess.run([sys.executable, "-c", RAISE_CHILD], capture_output=True, text=True, timeout=60,
+                         check=True).stdout.split("\n")
+    normal, lowered, main = out[1].split(), out[2].split(), int(out[3])
+    assert int(lowered[0]) == os.SCHED_OTHER and int(lowered[1]) == max(7, os.getpriority(os.PRIO_PROCESS, 0))
+    if int(out[0]) == 0:
+        pytest.skip("no permission for real-time scheduling or a lower nice value here")
+    if int(normal[0]) == os.SCHED_OTHER:               # no real-time permission: a lower nice value instead
+        assert int(normal[1]) < os.getpriority(os.PRIO_PROCESS, 0) and int(out[0]) == 2
+    else:
+        assert int(normal[0]) == os.SCHED_RR and main == os.SCHED_RR and int(out[0]) == 2
