@@ -261,15 +261,16 @@ def _wait_for_match(count: Callable[[], int], wanted: int, failure: str, timeout
 
 
 class Probe:
-    """An rclpy node spinning in a background thread of the test process."""
+    """An rclpy node spinning in a background thread of the test process (on ``domain_id``;
+    None: the process's ROS_DOMAIN_ID)."""
 
-    def __init__(self, name: str = "test_probe") -> None:
+    def __init__(self, name: str = "test_probe", domain_id: int | None = None) -> None:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
         self._rclpy = rclpy
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, args=["probe", "--ros-args", "--disable-rosout-logs"])
+        rclpy.init(context=self.context, args=["probe", "--ros-args", "--disable-rosout-logs"], domain_id=domain_id)
         self.node = rclpy.create_node(f"{name}_{os.getpid()}", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
