@@ -38,6 +38,19 @@ class PlannedTrial:
         return f"{self.index:03d}-{self.condition}-{self.task}-{rep}"
 
 
+def trial_seed(subject: int, index: int) -> int:
+    """The seed of virtual subject ``subject``'s trial at 1-based session position ``index``
+    (practice trials count): its policy's noise and what it is told of the goal. The subject node,
+    the session runner and the quick sweep all seed trials with this."""
+    return subject * 100_003 + index
+
+
+def scripted_subject_id(policy: str, number: int) -> str:
+    """The subject id of virtual subject ``number`` walking with ``policy`` (its session folder's
+    name; its number picks the session's counterbalanced order)."""
+    return f"scripted-{policy}-{number}"
+
+
 def subject_number(subject: str) -> int:
     """The number in a subject id (its last group of digits): ``S07`` → 7, ``scripted-follow_path-3`` → 3."""
     found = re.findall(r"\d+", subject)

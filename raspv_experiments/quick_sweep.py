@@ -12,8 +12,12 @@ Only conditions the phosphene simulator renders alone are run here: modes that n
 node (Chess-Floor, Wall-Obstacles, …) run in sessions (``raspv experiment sweep``).
 
 Each virtual subject N has its ability (:func:`~raspv_experiments.subject_ability.subject_ability`)
-and the sweep's ``subject_params``; trial k of its session (conditions in the sweep's order,
-1-based) is seeded ``N * 100003 + k`` as the subject node seeds a session's trials.
+and the sweep's ``subject_params``; each trial is seeded as in N's session
+(:func:`~raspv_experiments.design.trial_seed` of its position in
+:func:`~raspv_experiments.design.plan_session`: the design's counterbalanced or random order,
+practice trials counted though not run here), so a quick sweep and a graph sweep of the same
+sweep file walk the same trials for every subject. Rows come in the sweep's order (subject, then
+its conditions), not the session's.
 """
 from __future__ import annotations
 
@@ -100,6 +104,15 @@ def check_quick(sweep: Sweep) -> list[str]:
     return problems
 
 
+def session_seeds(sweep: Sweep) -> dict[tuple[int, str, str, int], int]:
+    """The seed of every trial (subject, condition, task, repetition) of ``sweep`` as the subject's
+    session seeds it: from the trial's position in the session's plan."""
+    from raspv_experiments.design import plan_session, scripted_subject_id, trial_seed
+
+    return {(s, t.condition, t.task, t.repetition): trial_seed(s, t.index) for s in sweep.subjects
+            for t in plan_session(sweep.protocol, scripted_subject_id(sweep.policy, s)) if not t.practice}
+
+
 def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
                     progress: Callable[[str], None] | None = print,
                     only: set[tuple[int, str, str, int]] | None = None) -> list[QuickTrialRecord]:
@@ -118,10 +131,7 @@ def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
     reps = sweep.protocol.design.repetitions
     plan = [(s, c, t, r) for s in sweep.subjects for c in sweep.protocol.conditions for t in sweep.protocol.tasks
             for r in range(1, reps + 1)]
-    seeds, count = {}, {}
-    for s, c, t, r in plan:                      # trial k of subject s's session: seeded s * 100003 + k
-        count[s] = count.get(s, 0) + 1
-        seeds[(s, c.name, t.name, r)] = s * 100_003 + count[s]
+    seeds = session_seeds(sweep)
     if only is not None:
         missing = sorted(set(only) - set(seeds))
         if missing:
@@ -270,14 +280,19 @@ def summary_table(summaries: list[LevelSummary], factor: str,
     return "\n".join(lines)
 
 
-def stratified_sample(records: list[QuickTrialRecord], seed: int = 33) -> set[tuple[int, str, str, int]]:
-    """One trial of every (condition, task) cell of ``records``, each from another subject where
-    there are enough (drawn seeded: the same records give the same sample) — rows to re-run and
-    compare, so a documented table is checked in every condition, not in one subject's session."""
+def stratified_sample(records: list[QuickTrialRecord], seed: int = 33, by_task: bool = True,
+                      max_wall_s: float | None = None) -> set[tuple[int, str, str, int]]:
+    """One trial of every (condition, task) cell of ``records`` (of every condition, tasks pooled,
+    when not ``by_task``), each from another subject where there are enough (drawn seeded: the same
+    records give the same sample) — rows to re-run and compare, so a documented table is checked in
+    every condition, not in one subject's session. ``max_wall_s``: drawn among the rows that took at
+    most that long when recorded (a cheap sample; a cell with none keeps all its rows)."""
     rng = np.random.default_rng(seed)
     cells: dict[tuple[str, str], list[QuickTrialRecord]] = {}
     for r in records:
-        cells.setdefault((r.condition, r.task), []).append(r)
+        cells.setdefault((r.condition, r.task if by_task else ""), []).append(r)
+    if max_wall_s is not None:
+        cells = {k: [r for r in rows if r.wall_s <= max_wall_s] or rows for k, rows in cells.items()}
     used: set[int] = set()
     out = set()
     for key in sorted(cells):

@@ -31,7 +31,7 @@ from typing import Any, Callable
 from raspv_bringup.graph import Graph, NodeEntry
 from raspv_bringup.supervisor import Supervisor, stop_with_parent
 from raspv_common.shown_share import ShownFrame, shown_share
-from raspv_experiments.design import PlannedTrial, plan_session, subject_number
+from raspv_experiments.design import PlannedTrial, plan_session, scripted_subject_id, subject_number, trial_seed
 from raspv_experiments.gaze_metrics import trial_gaze_metrics
 from raspv_experiments.goal_knowledge import told_goal
 from raspv_experiments.metrics import trajectory_record, trial_metrics
@@ -90,7 +90,7 @@ def parse_subject(text: str) -> tuple[str, str | None, int]:
             raise ValueError(f"--subject {text}: N must be a number (the virtual subject), e.g. scripted:{policy}:3") from None
         if number < 1 or len(parts) > 3:
             raise ValueError(f"--subject {text}: expected scripted:POLICY[:N] with N >= 1")
-        return f"scripted-{policy}-{number}", policy, number
+        return scripted_subject_id(policy, number), policy, number
     if not text or any(c in text for c in "/\\ :"):
         raise ValueError(f"--subject {text!r}: use an id without spaces, slashes or colons, e.g. S07")
     return text, None, subject_number(text)
@@ -379,7 +379,7 @@ class SessionRunner:
         if self.options.scripted:      # what the subject is told, and the frames of this trial come after
             dx, dy = task.goal.x - task.start_x, task.goal.y - task.start_y
             told = told_goal((math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy),
-                             self.protocol.goal_knowledge, self.number * 100_003 + trial.index)
+                             self.protocol.goal_knowledge, trial_seed(self.number, trial.index))
             if told is not None:       # goal_knowledge none: nothing said (the subject explores)
                 info["goal_from_start"] = [float(told[0]), float(told[1])]     # exact, as quick_trial tells it
             info["after"] = self.client.state()[0] or 0.0

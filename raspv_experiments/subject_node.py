@@ -41,6 +41,7 @@ from raspv_common.frames import BASE_LINK
 from raspv_common.conversions import stamp_to_seconds
 from raspv_common.node import RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS, EVENT_QOS, GAZE_QOS, LATCHED_QOS, SENSOR_QOS
+from raspv_experiments.design import trial_seed
 from raspv_experiments.policies import Command, PhospheneLayout, PolicyConfig, make_policy
 from raspv_experiments.scripted_gaze import (GazeModelConfig, GazeScript, displayed_layout_index, load_trace,
                                              model_trace)
@@ -117,7 +118,7 @@ class SubjectNode(RaspvNode):
             return
         self.answered_instructions = key
         # a new trial: the same virtual subject, its noise reseeded per trial (reproducible)
-        self.trial_seed = int(self.params["seed"]) * 100_003 + int(info.get("trial", 0))
+        self.trial_seed = trial_seed(int(self.params["seed"]), int(info.get("trial", 0)))
         goal = info.get("goal_from_start")
         self.goal = (float(goal[0]), float(goal[1])) if isinstance(goal, list) and len(goal) == 2 else None
         self.after = float(info.get("after", -1.0))

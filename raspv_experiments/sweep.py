@@ -44,6 +44,7 @@ import yaml
 
 from raspv_bringup.registry import schema_for
 from raspv_common.extras import require
+from raspv_experiments.design import scripted_subject_id
 from raspv_experiments.protocol import Protocol, ProtocolError, parse_protocol, resolve_protocol_path
 from raspv_experiments.subject_params import POLICY_NAMES
 
@@ -229,7 +230,7 @@ def run_job(sweep_path: str, number: int, out: str, resume: bool,
     from raspv_experiments.session_runner import RunOptions, SessionRunner
 
     sweep = load_sweep(sweep_path)
-    subject = f"scripted-{sweep.policy}-{number}"
+    subject = scripted_subject_id(sweep.policy, number)
     with private_domain(*(domains or ())) as domain:
         apply_middleware_defaults()
         options = RunOptions(out=Path(out), subject=subject, policy=sweep.policy, number=number, resume=resume,
@@ -326,7 +327,7 @@ PROGRESS_PERIOD_S = 10.0
 def _total_trials(sweep: Sweep) -> int:
     from raspv_experiments.design import plan_session
 
-    return sum(len(plan_session(sweep.protocol, f"scripted-{sweep.policy}-{n}")) for n in sweep.subjects)
+    return sum(len(plan_session(sweep.protocol, scripted_subject_id(sweep.policy, n))) for n in sweep.subjects)
 
 
 class SweepProgress:
@@ -364,7 +365,7 @@ def _result(fut: cf.Future, number: int, policy: str) -> dict[str, Any]:
     try:
         return fut.result()
     except cf.BrokenExecutor as exc:
-        return {"subject": f"scripted-{policy}-{number}", "domain": None, "code": 1, "host": os.uname().nodename,
+        return {"subject": scripted_subject_id(policy, number), "domain": None, "code": 1, "host": os.uname().nodename,
                 "error": f"its worker process ended ({exc})", "session_json": None, "records": [], "log": ""}
 
 

@@ -43,15 +43,17 @@ def test_the_documented_comparison_with_the_people():
     spec.loader.exec_module(tool)
     a = tool.analyse()
     assert a["subjects"] == 12 and a["shortest_m"] == pytest.approx(22.23, abs=0.01)
-    assert a["gap_s"] == pytest.approx(31.0, abs=0.05) and a["sd_diff_s"] == pytest.approx(17.3, abs=0.05)
+    assert a["gap_s"] == pytest.approx(34.2, abs=0.05) and a["sd_diff_s"] == pytest.approx(16.5, abs=0.05)
     p26, p18 = a["power"][676], a["power"][324]
-    assert p26["dz"] == pytest.approx(1.06, abs=0.005) and p26["power"] == pytest.approx(0.92, abs=0.005)
-    assert (p26["n80"], p26["n90"]) == (10, 12)
-    assert p18["power"] == pytest.approx(0.74, abs=0.005) and (p18["n80"], p18["n90"]) == (14, 18)
+    assert p26["dz"] == pytest.approx(1.22, abs=0.005) and p26["power"] == pytest.approx(0.97, abs=0.005)
+    assert (p26["n80"], p26["n90"]) == (8, 10)
+    assert p18["power"] == pytest.approx(0.85, abs=0.005) and (p18["n80"], p18["n90"]) == (11, 14)
+    assert a["observed_dz"] == pytest.approx(0.54, abs=0.005)
     trends = {t.measure: t for t in a["trends"]}
-    assert trends["time_s"].page_p == pytest.approx(0.055, abs=0.0005) and trends["success"].page_p > 0.3
+    assert trends["time_s"].page_p == pytest.approx(0.003, abs=0.0005) and trends["success"].page_p > 0.3
     assert all(s.ci[0] <= 0 <= s.ci[1] for t in a["trends"] for s in t.steps)     # no step inside the range
     by = {(r.measure, r.level): r for r in a["restored"]}
     for level, people in (("324", 46.2), ("676", 59.2)):
         assert by[("time_s", level)].ci[1] < people                                  # below the people's, CI and all
-    assert round(by[("time_s", "676")].percent) == 27 and round(by[("time_s", "324")].percent) == 13
+    assert round(by[("time_s", "676")].percent) == 26 and round(by[("time_s", "324")].percent) == 22
+    assert by[("time_s", "2500")].ci[0] > 0                                          # 50×50: CI above 0

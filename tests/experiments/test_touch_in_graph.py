@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 import yaml
 
+from raspv_experiments.design import trial_seed
 from raspv_experiments.protocol import EXPERIMENTS_DIR
 from raspv_experiments.quick_sweep import _graph_params, subject_config
 from raspv_experiments.quick_trial import quick_trial
@@ -48,7 +49,7 @@ def test_a_graph_trial_and_a_quick_trial_of_the_same_seed_agree_over_the_whole_t
     spv = {**_graph_params(sweep, "spv"), **condition.params["spv"], "headless": True}
     quick = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
                         (task.goal.x, task.goal.y, task.goal.radius), task.time_limit, spv=spv, policy="navigate",
-                        config=subject_config(sweep, SUBJECT, SUBJECT * 100_003 + 1), rate=10, size=(160, 120),
+                        config=subject_config(sweep, SUBJECT, trial_seed(SUBJECT, 1)), rate=10, size=(160, 120),
                         sim_params=_graph_params(sweep, "sim"),
                         on_frame=lambda sim: bumps.append(round(sim.t, 2)) if sim.monitor.count > len(bumps) else None)
     assert quick.collisions == 3 and len(bumps) == 3 and not quick.success
