@@ -6,7 +6,8 @@ elsewhere (a kidnap), and a building map that is exactly the world. A :class:`Wa
 route of floor waypoints (W, metres) walked ``loops`` times at ``speed``; the body turns at
 corners at a bounded rate (people turn on the spot at a door), the head sways in yaw and looks
 down at the floor ahead, as a head-mounted camera does. Kidnaps cover the camera for ``covered_s``
-(black colour, no depth) while the subject is carried to another waypoint.
+(black colour, no depth) while the subject is carried to another waypoint. A route whose legs
+cross a wall or furniture is refused (:mod:`walk_route`): the camera would go through it.
 
 :func:`render_walk` renders every frame (with the realistic depth-sensor model and surface
 textures by default) and writes:
@@ -160,6 +161,16 @@ def plan_walk(spec: WalkSpec) -> WalkPlan:
     return WalkPlan(poses, length, loop_times)
 
 
+def check_route(spec: WalkSpec, grid) -> None:
+    """WalkError when a leg of the route crosses a wall or furniture of ``grid`` (the world's
+    occupancy map; :mod:`raspv_sim.walk_route`)."""
+    from raspv_sim.walk_route import route_obstruction
+
+    blocked = route_obstruction(spec.waypoints, grid)
+    if blocked is not None:
+        raise WalkError(f"walk in {spec.world}: {blocked.describe()}")
+
+
 def _pose(spec: WalkSpec, t: float, pos: np.ndarray, yaw: float, covered: bool = False) -> WalkPose:
     sway = math.radians(spec.head_yaw_deg) * math.sin(2 * math.pi * t / spec.head_period_s)
     bob = math.radians(3.0) * math.sin(2 * math.pi * t / (0.5 * spec.head_period_s))
@@ -170,17 +181,19 @@ def render_walk(spec: WalkSpec, output: str | Path, progress=None) -> WalkPlan:
     """Render every frame of ``spec`` into the folder ``output`` (TUM layout, see the module
     docstring). Returns the plan (poses, length, loop times)."""
     from raspv_sim.depth_sensor import DepthSensorConfig
+    from raspv_sim.occupancy_export import world_occupancy
     from raspv_sim.simulator import SimConfig, Simulation
 
     out = Path(output)
-    (out / "rgb").mkdir(parents=True, exist_ok=True)
-    (out / "depth").mkdir(parents=True, exist_ok=True)
     plan = plan_walk(spec)
     config = SimConfig(width=spec.width, height=spec.height, hfov_deg=spec.hfov_deg, seed=spec.seed,
                        depth_sensor=DepthSensorConfig() if spec.realistic_depth else None, textures=spec.textures)
     t0 = 1_700_000_000.0                      # a fixed epoch: same walk, same file names
     rgb_lines, depth_lines, gt_lines = [], [], []
     with Simulation(spec.world, config) as sim:
+        check_route(spec, world_occupancy(sim.world))
+        (out / "rgb").mkdir(parents=True, exist_ok=True)
+        (out / "depth").mkdir(parents=True, exist_ok=True)
         K = sim.intrinsics
         for n, p in enumerate(plan.poses):
             if progress is not None:

@@ -93,3 +93,46 @@ def test_a_rendered_walk_reads_back_with_its_ground_truth(tmp_path, private_cach
     assert np.isfinite(depth).mean() > 0.5 and np.nanmax(depth) <= 6.0 + 1e-3       # realistic sensor's range
     meta = yaml.safe_load((out / "walk.yaml").read_text())
     assert meta["length_m"] == pytest.approx(1.2, abs=0.05)            # there and back
+
+
+def test_a_leg_through_a_wall_is_found_and_one_around_it_is_not():
+    from raspv_common.occupancy import OCCUPIED, OccupancyGrid
+    from raspv_sim.walk_route import route_obstruction
+
+    cells = np.zeros((40, 40), np.int8)                       # 4 m x 4 m at 0.1 m, a wall along x = 2 m
+    cells[:30, 20] = OCCUPIED                                 # ... from y = 0 to 3 m: a gap at the north end
+    grid = OccupancyGrid(cells, 0.1, (0.0, 0.0))
+    blocked = route_obstruction([(1.0, 1.0), (3.0, 1.0), (3.0, 1.5)], grid)
+    assert blocked is not None and blocked.distance == 0.0
+    assert blocked.start == (1.0, 1.0) and blocked.at[0] == pytest.approx(2.0, abs=0.1)
+    assert "(1, 1) -> (3, 1) goes through" in blocked.describe()
+    assert route_obstruction([(1.0, 3.5), (3.0, 3.5)], grid) is None            # through the gap, both ways
+
+
+def test_the_shipped_walks_go_through_doors_not_walls(private_cache):
+    """Every leg of every shipped walk keeps clear of the world's walls and furniture: the office
+    walks once crossed the open plan's east wall (the camera jumped through it and SLAM lost
+    tracking)."""
+    from raspv_sim.occupancy_export import world_occupancy
+    from raspv_sim.simulator import SimConfig, Simulation
+    from raspv_sim.walks import check_route
+
+    folder = Path(__file__).resolve().parents[2] / "raspv_sim" / "walks"
+    specs = [load_walk(p) for p in sorted(folder.glob("*.yaml"))]
+    for world in sorted({s.world for s in specs}):
+        with Simulation(world, SimConfig(width=16, height=12, renderer="tiny")) as sim:
+            grid = world_occupancy(sim.world)
+        for spec in (s for s in specs if s.world == world):
+            check_route(spec, grid)
+
+
+def test_a_walk_through_a_wall_is_refused_in_one_line(tmp_path, private_cache):
+    walk = tmp_path / "walk.yaml"
+    walk.write_text(yaml.safe_dump({"world": "office", "waypoints": [[13.3, 8.0], [9.5, 8.0]], "loops": 1,
+                                    "width": 160, "height": 120}))
+    out = tmp_path / "seq"
+    run = subprocess.run([sys.executable, "-m", "raspv_bringup.cli", "sim", "walk", str(walk), "-o", str(out), "--flat"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode != 0 and "Traceback" not in run.stderr
+    assert "(13.3, 8) -> (9.5, 8) goes through a wall" in run.stderr.strip().splitlines()[-1]
+    assert not out.exists()
