@@ -23,6 +23,7 @@ from raspv_sim.world_builder import BuiltWorld
 
 SUBSTEP = 0.05            # m, longest straight move checked at once
 GROUND_PROBE_GAP = 0.01   # m, between the top of the ground probe and the bottom of the body
+MAX_PEOPLE_UNDERFOOT = 8  # person surfaces the ground probe looks through before giving up
 # optical frame (x right, y down, z forward) expressed in the head frame (x forward, y left, z up)
 HEAD_FROM_OPTICAL = LINK_FROM_OPTICAL[:3, :3]
 
@@ -273,12 +274,20 @@ class Avatar:
         return worst is None, z, worst
 
     def _ground(self, x: float, y: float, reach: float) -> float | None:
-        """Height of the walkable surface under (x, y) within ±``reach`` m of the feet, or None."""
+        """Height of the walkable surface under (x, y) within ±``reach`` m of the feet, or None.
+        People are not ground: the probe looks through a person's feet (a walk teleported onto
+        a walker stood on its shoes, 0.15-0.4 m up)."""
         top = self.z + self.config.max_step + GROUND_PROBE_GAP / 2
-        hit = self.c.rayTest([x, y, top], [x, y, self.z - reach - 1e-3])[0]
-        if hit[0] < 0 or hit[0] == getattr(self, "uid", None):
-            return None
-        return float(hit[3][2])
+        bottom = self.z - reach - 1e-3
+        for _ in range(MAX_PEOPLE_UNDERFOOT):
+            hit = self.c.rayTest([x, y, top], [x, y, bottom])[0]
+            if hit[0] < 0 or hit[0] == getattr(self, "uid", None):
+                return None
+            info = self.world.bodies.get(hit[0])
+            if info is None or info.kind != "person":
+                return float(hit[3][2])
+            top = float(hit[3][2]) - 1e-3           # inside the person: a ray leaving a body reports no hit
+        return None
 
     def _place(self, x: float, y: float, z: float) -> None:
         self.c.resetBasePositionAndOrientation(self.uid, [x, y, z + self._centre], [0.0, 0.0, 0.0, 1.0])

@@ -149,3 +149,15 @@ def test_a_person_walking_into_the_avatar_is_a_collision_and_it_can_step_away():
         s.step(0.0)
         drive(s, 0.5, 0.0, 1.0)                   # stepping out of the overlap is allowed
         assert s.avatar.x > x + 0.4
+
+
+def test_put_where_a_person_stands_it_stays_on_the_floor():
+    """A person is not ground: a walk's frame rendered where a walker is (people do not step
+    aside) keeps the camera at eye height instead of standing on the walker's shoes."""
+    people = [{**WORLD["people"][0], "model": "humanoid"}]
+    spec = parse_world({**WORLD, "people": people}, "test-world")
+    with Simulation(spec, SimConfig(width=16, height=12, renderer="tiny")) as s:
+        s.world.update_people(2.2)                # the walker at (2.0, 3.0)
+        for y in (2.9, 2.95, 3.0, 3.05, 3.1):
+            s.avatar.teleport(2.0, y, 0.0)
+            assert s.avatar.z == pytest.approx(0.0, abs=1e-6)
