@@ -44,6 +44,15 @@ def test_the_sweep_file_is_valid_and_runs_in_one_process():
     assert list(sweep.protocol.factors) == ["spv.num_phosphenes"]
 
 
+def test_the_in_range_sweep_has_the_studys_six_counts_and_realistic_depth():
+    sweep = load_sweep(REPO / "experiments" / "obstacle_course_range_sweep.yaml")
+    counts = [c.params["spv"]["num_phosphenes"] for c in sweep.protocol.conditions]
+    assert counts == [n * n for n in (10, 18, 26, 34, 42, 50)]
+    assert sweep.protocol.graph.node("sim").params["depth_noise"] is True
+    assert len(sweep.subjects) == 12 and sweep.protocol.design.order == "latin_square"    # two 6×6 squares
+    assert check_quick(sweep) == []
+
+
 def _record(subject, level, success, collisions, time_s):
     return QuickTrialRecord(subject, f"n={level}", {"spv.num_phosphenes": str(level)}, "course", 1, success,
                             time_s if success else math.nan, time_s, collisions, 10.0, level, 1.0)
