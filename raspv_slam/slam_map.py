@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_perception.rgbd_odometry import LEVEL_WORLD_FROM_CAMERA
+from raspv_perception.rgbd_odometry import LEVEL_WORLD_FROM_CAMERA, nearest_rigid
 from raspv_slam.config import SlamConfig
 from raspv_slam.keyframe import Keyframe
 from raspv_slam.place_recognition import PlaceDatabase
@@ -74,7 +74,10 @@ class SlamMap:
             self.keyframes[kf.id] = kf
             if parent_pose_seen is not None and parent in self._poses:
                 slam_from_kf = self._poses[parent] @ inverse(parent_pose_seen) @ np.asarray(slam_from_kf, np.float64)
-            self._poses[kf.id] = np.array(slam_from_kf, dtype=np.float64)
+            # stored rigid: a pose composed with the inverse (transpose) of a slightly skewed one
+            # grows the skew, and each keyframe placed on its parent this way cubed it (a walk's
+            # keyframe poses went from round-off to 1e11 in 35 keyframes without a correction)
+            self._poses[kf.id] = nearest_rigid(np.asarray(slam_from_kf, dtype=np.float64))
             self._next_id = max(self._next_id, kf.id + 1)
             if transient:
                 self.transient.append(kf.id)
@@ -141,7 +144,7 @@ class SlamMap:
             for k in sorted(set(before) - set(after)):
                 p = self.parent.get(k)
                 if p is not None and p in after:
-                    after[k] = after[p] @ inverse(before[p]) @ before[k]
+                    after[k] = nearest_rigid(after[p] @ inverse(before[p]) @ before[k])
                 else:
                     after[k] = before[k]
             self._poses = after

@@ -103,3 +103,29 @@ def test_a_keyframe_added_after_a_loop_correction_lands_on_its_corrected_parent(
     np.testing.assert_allclose(m.pose(3), stale)
     m.add_keyframe(kf(4), m.pose(2) @ step @ step, 2, step, parent_pose_seen=m.pose(2))   # no correction since
     np.testing.assert_allclose(m.pose(4), m.pose(2) @ step @ step, atol=1e-12)
+
+
+def test_keyframes_chained_on_their_parents_stay_rigid():
+    """The tracker places each keyframe on its parent as the map holds it (parent_pose_seen);
+    the composition with the parent's inverse grew round-off threefold per keyframe, and a
+    simulator walk's keyframe poses reached 1e11 after 35 keyframes without a correction."""
+    from raspv_slam.features import Features
+    from raspv_slam.keyframe import Keyframe
+    from raspv_slam.slam_map import SlamMap
+
+    from .conftest import K, pose
+
+    def kf(i):
+        return Keyframe(i, float(i), Features(np.zeros((0, 2)), np.zeros((0, 32), np.uint8), np.zeros((0, 3)),
+                                              np.zeros(0)), np.zeros(1, np.uint8), np.zeros(1, np.uint8))
+    m = SlamMap(K, SlamConfig())
+    step = inverse(pose(0, 0, 0)) @ pose(0.2, 0.05, 7.0, z=0.01)
+    m.add_keyframe(kf(0), pose(1.0, 2.0, 33.0))
+    expected = m.pose(0)
+    for i in range(1, 80):
+        seen = m.pose(i - 1)
+        m.add_keyframe(kf(i), seen @ step, i - 1, step, parent_pose_seen=seen)
+        expected = expected @ step
+    R = m.pose(79)[:3, :3]
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-9)
+    np.testing.assert_allclose(m.pose(79), expected, atol=1e-9)
