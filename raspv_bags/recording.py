@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Sequence
 
+from raspv_bags.sequence_gaps import SequenceGaps
+
 if TYPE_CHECKING:
     from raspv_bags.writer import QosSpec
 
@@ -74,6 +76,7 @@ class Recording:
         self.last_ns: int | None = None
         self._expected: dict[str, tuple[str, list[QosSpec]]] = {}
         self.on_first_message = None          # callback(topic, msgtype) when a topic enters the bag
+        self.gaps = SequenceGaps()            # messages published but never taken (the recorder behind)
 
     @property
     def topics(self) -> dict[str, str]:
@@ -89,9 +92,11 @@ class Recording:
         if topic not in self.writer.types:
             self._expected[topic] = (msgtype, list(offered))
 
-    def on_message(self, topic: str, data: bytes, receive_ns: int) -> None:
-        """Write one serialised message with its receive time (ns since the epoch). Raises
+    def on_message(self, topic: str, data: bytes, receive_ns: int, publication_number: int = 0) -> None:
+        """Write one serialised message with its receive time (ns since the epoch) and its
+        publisher's sequence number (0: unknown; holes are counted as lost, :attr:`gaps`). Raises
         :class:`~raspv_bags.writer.BagWriteError` when an expected topic cannot be added."""
+        self.gaps.seen(topic, publication_number, time.monotonic())
         expected = self._expected.pop(topic, None)
         if expected is not None:
             self.writer.add_topic(topic, *expected)
@@ -111,6 +116,8 @@ class Recording:
         (MB on disk)."""
         elapsed = time.monotonic() - self.started
         head = f"recording {elapsed:6.1f} s  {self.writer.file_bytes / 1e6:7.1f} MB"
+        if self.gaps.total:
+            head += f"  LOST {self.gaps.total}"
         parts = [f"{t} {n}" for t, n in sorted(self.writer.counts.items())]
         line = "  ".join([head] + parts) if parts else head + "  (waiting for topics)"
         return line if len(line) <= width else line[: max(0, width - 1)] + "…"
@@ -124,7 +131,11 @@ class Recording:
         rate = f", {on_disk / 1e6 / span:.2f} MB/s" if span > 0 else ""
         lines = [f"{self.path}: {total} messages over {span:.1f} s, {on_disk / 1e6:.1f} MB{rate} ({how})"]
         for t, n in sorted(self.writer.counts.items()):
-            lines.append(f"  {t:40s} {n:7d}  {self.writer.types[t]}")
+            lost = self.gaps.lost.get(t, 0)
+            lines.append(f"  {t:40s} {n:7d}  {self.writer.types[t]}" + (f"  ({lost} lost)" if lost else ""))
+        if self.gaps.total:
+            lines.append(f"{self.gaps.total} messages were published but lost before the recorder took them (it fell "
+                         "behind: the machine too busy for it)")
         return "\n".join(lines)
 
     def flush(self) -> None:
