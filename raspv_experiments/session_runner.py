@@ -103,7 +103,8 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
     lockstep stepping, sim time everywhere, a headless spv node, no headset bridge, and the
     subject node with its ability (:mod:`raspv_experiments.subject_ability`). With
     ``condition`` (scripted, lockstep) the condition's parameters are the nodes' own and the
-    simulator holds between trials, the planner answering every frame."""
+    simulator holds between trials, the planner answering every frame and the scene node taking
+    each frame with the camera pose of its stamp."""
     from raspv_experiments.subject_ability import subject_ability
 
     g = copy.deepcopy(protocol.graph)
@@ -132,6 +133,8 @@ def session_graph(protocol: Protocol, world: str, options: RunOptions, seed: int
                 n.params["world"] = world
             if exact:
                 n.params["lockstep"] = True
+        if n.kind == "scene" and exact:
+            n.params["lockstep"] = True         # each depth frame with the camera pose of its stamp
         if n.kind == "spv" and headless:
             n.params["headless"] = True
         nodes.append(n)

@@ -2,7 +2,9 @@
 /scene/structure and /scene/labels.
 
 Each depth image is processed on arrival (the newest wins when processing is slower than the
-source). The pose prior is the latest /camera/pose within ``pose_max_age`` of the depth stamp;
+source); with ``lockstep`` (scripted sessions) it waits for the /camera/pose of its own stamp
+(:mod:`raspv_perception.pose_pairing`), so every run processes a frame with the same prior.
+The pose prior is the /camera/pose nearest the depth stamp, within ``pose_max_age``;
 the gravity prior is the low-passed accelerometer of /camera/imu (``imu_gravity``) when its
 samples are recent and in the depth image's frame. ``mounting`` sets the first-floor limits.
 Both outputs carry the depth image's header, so consumers pair them by stamp.
@@ -11,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections import deque
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped
@@ -23,6 +24,7 @@ from raspv_common.conversions import (array_to_image, pose_to_matrix, stamp_to_s
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import IMU_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_perception.imu_gravity import GravityFilter
+from raspv_perception.pose_pairing import PosePairing
 from raspv_perception.scene_config import SceneConfig
 from raspv_perception.scene_msg import structure_to_msg
 from raspv_perception.scene_params import CONFIG_FIELDS, PARAMS
@@ -52,7 +54,8 @@ class SceneNode(RaspvNode):
             self.perception = ScenePerception(config_from_params(self.params))
         except ValueError as exc:
             raise ConfigurationError(str(exc)) from None
-        self.poses: deque[tuple[float, np.ndarray]] = deque(maxlen=50)
+        self.pairing = PosePairing(self.params["pose_max_age"],
+                                   wait=self.params["lockstep"] and self.params["use_pose_prior"])
         self.gravity = GravityFilter()
         self.imu_frame: str | None = None
         self.imu_since: float | None = None      # monotonic time of the first /camera/imu message
@@ -70,6 +73,8 @@ class SceneNode(RaspvNode):
         except ValueError as exc:
             return str(exc)
         self.perception.set_config(config)
+        if "pose_max_age" in changes:
+            self.pairing.max_age_s = changes["pose_max_age"]
         return None
 
 
@@ -78,7 +83,9 @@ class SceneNode(RaspvNode):
         if not np.isfinite(T).all():
             self.warn_throttled("pose", "ignoring a camera pose with NaN/inf values")
             return
-        self.poses.append((stamp_to_seconds(msg.header.stamp), T))
+        released = self.pairing.add_pose(stamp_to_seconds(msg.header.stamp), T)
+        if released is not None:
+            self._process(released[1])
 
     def on_imu(self, msg: Imu) -> None:
         a = msg.linear_acceleration
@@ -102,15 +109,18 @@ class SceneNode(RaspvNode):
         return up, wait
 
     def _prior(self, stamp: float) -> np.ndarray | None:
-        if not self.params["use_pose_prior"] or not self.poses:
-            return None
-        t, T = min(self.poses, key=lambda tp: abs(tp[0] - stamp))
-        return T if abs(t - stamp) <= self.params["pose_max_age"] else None
+        return self.pairing.prior(stamp) if self.params["use_pose_prior"] else None
 
     def on_depth(self, msg: Image) -> None:
         if self.intrinsics is None:
             self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
             return
+        ready = self.pairing.add_frame(stamp_to_seconds(msg.header.stamp), msg)
+        if ready is not None:
+            self._process(ready[1])
+
+    def _process(self, msg: Image) -> None:
+        """Analyse one depth frame and publish its structure and labels."""
         depth = self.read_depth(msg)
         if depth is None:
             return

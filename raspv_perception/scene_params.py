@@ -8,6 +8,9 @@ PARAMS = [
     Param("use_pose_prior", True, "use /camera/pose (when published) for gravity and floor tracking"),
     Param("pose_max_age", 0.2, "a pose further than this from the depth stamp is not used", minimum=0.0,
           maximum=5.0, unit="s"),
+    Param("lockstep", False, "scripted sessions in a lockstep simulator: each depth frame waits for the "
+          "/camera/pose of its own stamp (the simulator publishes one with every frame), so a run repeats "
+          "exactly; off, a frame is processed on arrival with the nearest pose there is", dynamic=False),
     Param("mounting", "head", "where the camera is carried; sets the camera height and tilt accepted for a new "
           "floor (head 1.0-2.0 m, chest 0.7-1.6 m, hand 0.3-1.5 m, robot 0.1-1.5 m; custom: the first_floor_* "
           "limits)", choices=("head", "chest", "hand", "robot", "custom")),

@@ -9,7 +9,10 @@ every frame too before the world steps (their answers carry their name as ``fram
 command, e.g. the planner once its path for the frame is out), so what they compute from frame
 k is the same in every run. An answer for an older frame is ignored; with no answer within
 ``timeout_s`` of wall time the world steps anyway with the last command (and the timeout is
-counted), so a graph without a controller still runs, slowly.
+counted), so a graph without a controller still runs, slowly — unless ``strict``: then the
+world waits for every answer however long it takes (counted as ``late`` once per frame), since
+a step taken on a timeout makes the run depend on the machine's load (a scripted session at
+load 10-16 parted from its repetition where a frame's answer took over 2 s).
 
 ``hold`` stops stepping altogether (no timeouts either): with ``lockstep_hold`` the sim node
 holds between trials and from the moment a trial reaches its goal or time limit, so the frames
@@ -30,8 +33,11 @@ class Lockstep:
     ready: bool = True                      # step now (nothing published yet, or answered)
     hold: bool = False                      # never step (between trials)
     timeouts: int = 0
+    strict: bool = False                    # never step on a timeout: wait for the answers
+    late: int = 0                           # frames whose answers took longer than timeout_s (strict)
     _controller: bool = False               # the controller answered the awaited frame
     _answered: set[str] = field(default_factory=set)
+    _late_counted: bool = False
 
     def __post_init__(self) -> None:
         if not self.timeout_s > 0:
@@ -41,6 +47,7 @@ class Lockstep:
     def published(self, stamp: float, wall: float) -> None:
         """Frame with sim time ``stamp`` went out at wall time ``wall``: wait for its answers."""
         self.waiting_for, self.since, self.ready = stamp, wall, False
+        self._late_counted = False
         self._controller, self._answered = False, set()
 
     def answer(self, stamp: float, linear: float, angular: float, who: str = "") -> bool:
@@ -69,9 +76,18 @@ class Lockstep:
         if self.ready:
             return True
         if wall - self.since >= self.timeout_s:
+            if self.strict:
+                if not self._late_counted:
+                    self.late, self._late_counted = self.late + 1, True
+                return False
             self.timeouts += 1
             self.ready = True
         return self.ready
+
+    def missing(self) -> list[str]:
+        """Who has not answered the awaited frame yet ("controller" and participants' names)."""
+        return ((["controller"] if not self._controller else [])
+                + sorted(self.participants - self._answered))
 
     def take(self) -> tuple[float, float]:
         """Consume the release: the command to step with."""

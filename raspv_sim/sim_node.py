@@ -127,7 +127,10 @@ class SimNode(SimGazeLog, RaspvNode):
         if p["step_mode"] == "lockstep":
             self.lockstep = Lockstep(p["lockstep_timeout"], frozenset(x for x in p["lockstep_participants"] if x))
             self.lockstep.hold = bool(p["lockstep_hold"])
-            self.create_subscription(TwistStamped, topics.SIM_LOCKSTEP, self.on_lockstep, COMMAND_QOS)
+            self.lockstep.strict = bool(p["lockstep_hold"])     # a scripted session waits for every answer
+            # every answer counts: the subject and the planner answer each frame on one topic, and with
+            # a queue of one the later answer replaced the earlier when both came while this node was busy
+            self.create_subscription(TwistStamped, topics.SIM_LOCKSTEP, self.on_lockstep, EVENT_QOS)
             self.create_timer(0.02, self.lockstep_poll)
         else:
             self.create_timer(1.0 / p["rate"], self.tick)
@@ -174,7 +177,13 @@ class SimNode(SimGazeLog, RaspvNode):
                 self.pub_odom.publish(self.odometry(header))
                 self.publish_tf(header.stamp)
             return
+        late = self.lockstep.late
         if self.params["paused"] or not self.lockstep.poll(now):
+            if self.lockstep.late > late:
+                self.warn_throttled("lockstep-late", f"frame at t = {self.lockstep.waiting_for:.2f} s unanswered for "
+                                                     f"{self.params['lockstep_timeout']:g} s by "
+                                                     f"{', '.join(self.lockstep.missing())}: waiting (no step without "
+                                                     f"the answers in a scripted session)", period_s=10.0)
             return
         report = self.tick(1.0 / self.params["rate"], self.lockstep.take())
         self.lockstep.published(self.sim.t, time.monotonic())

@@ -44,7 +44,8 @@ PARAMS = [
     Param("step_mode", "realtime", "realtime: step with the wall clock at 'rate'; lockstep: step 1/rate s of sim time "
           "each time a controller answers the last frame on /sim/lockstep (scripted subjects, sweeps)",
           choices=("realtime", "lockstep"), dynamic=False),
-    Param("lockstep_timeout", 2.0, "lockstep: step anyway when no answer came for this long", minimum=0.05,
+    Param("lockstep_timeout", 2.0, "lockstep: step anyway when no answer came for this long (with lockstep_hold "
+          "never: the world waits for every answer, with a warning after this long)", minimum=0.05,
           maximum=60.0, dynamic=False, unit="s"),
     Param("lockstep_hold", False, "lockstep: the world steps only while a trial runs — from /sim/start_trial with a "
           "log until its goal is reached or its time limit has passed — and holds before, between and after trials, "

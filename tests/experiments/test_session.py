@@ -137,3 +137,7 @@ def test_session_graph_for_people_and_scripted_subjects(tmp_path):
     baked = session_graph(protocol, "office", RunOptions(tmp_path, "scripted-navigate-2", "navigate"), 2, "depth")
     assert baked.node("spv").params["mode"] == "depth"                     # exact runs: the condition in the graph
     assert protocol.graph.node("sim").params.get("world") is None                    # the protocol is untouched
+    office = session_graph(load_protocol(EXAMPLE.parent / "office_navigation.yaml"), "office",
+                           RunOptions(tmp_path, "scripted-navigate-2", "navigate"), 2, "downsampling")
+    assert office.node("planner").params["lockstep"] and office.node("sim").params["lockstep_participants"] == ["planner"]
+    assert office.node("scene").params["lockstep"]         # each depth frame with the camera pose of its stamp

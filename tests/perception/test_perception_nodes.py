@@ -9,7 +9,8 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from raspv_camera.synthetic_scene import SyntheticRoom, camera_rotation
 from raspv_common import topics
-from raspv_common.conversions import array_to_image, image_to_array, intrinsics_to_camera_info, pose_to_matrix, seconds_to_stamp
+from raspv_common.conversions import (array_to_image, image_to_array, intrinsics_to_camera_info, matrix_to_pose,
+                                      pose_to_matrix, seconds_to_stamp)
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.qos import SENSOR_QOS
 from raspv_msgs.msg import SceneStructure as SceneStructureMsg
@@ -124,3 +125,28 @@ def test_spv_node_runs_the_scene_modes_from_the_scene_node(graph, probe):
     assert all(ok for _, ok, _ in results)
     both = levels_of("chess_wall_obstacles")
     assert {4, 7} <= set(np.unique(both))
+
+
+def test_scene_node_in_lockstep_takes_each_depth_frame_with_the_pose_of_its_stamp(graph, probe):
+    """A scripted session's simulator publishes a frame's pose right after its images; on arrival
+    the frame found its own pose, the previous frame's or none (the first frame), so lockstep runs
+    of the office task parted. Looking 50° down, the floor is found only with the pose as prior."""
+    K = CameraIntrinsics.from_hfov(160, 120, 60.0)
+    T = np.eye(4)
+    T[:3, :3] = camera_rotation(0.3, math.radians(50.0))
+    T[:3, 3] = (-1.0, -0.5, 1.5)
+    _, depth = SyntheticRoom(K).render(T)
+    graph({"launch": {"nodes": [{"kind": "scene"}]}, "scene": {"ros__parameters": {"lockstep": True}}})
+    structures = probe.subscribe(topics.SCENE_STRUCTURE, SceneStructureMsg, wait_for_publishers=1, timeout=90)
+    pub_info = probe.publisher(topics.CAMERA_INFO, CameraInfo, SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    pub_pose = probe.publisher(topics.CAMERA_POSE, PoseStamped, SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    pub_depth = probe.publisher(topics.DEPTH, Image, SENSOR_QOS, wait_for_subscribers=1, timeout=60)
+    header = Header(stamp=seconds_to_stamp(0.1), frame_id="camera")
+    pub_info.publish(intrinsics_to_camera_info(K, header))
+    pub_info.publish(intrinsics_to_camera_info(K, header))         # best effort: once more, before the image
+    pub_depth.publish(array_to_image(depth, "32FC1", header))
+    with pytest.raises(TimeoutError):                               # it waits for the frame's pose
+        structures.wait(1, timeout=1.5)
+    pub_pose.publish(PoseStamped(header=Header(stamp=header.stamp, frame_id="map"), pose=matrix_to_pose(T)))
+    s = structure_from_msg(structures.wait(1, timeout=30)[0])
+    assert s.floor_found and s.camera_height == pytest.approx(1.5, abs=0.02)

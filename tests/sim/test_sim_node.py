@@ -198,3 +198,32 @@ def test_teleop_drives_from_keys_in_a_terminal_and_restores_it(probe, ros_domain
             os.kill(pid, 9)
             os.waitpid(pid, 0)
         os.close(fd)
+
+
+def test_lockstep_keeps_every_answer_of_a_frame(graph, probe):
+    """The subject and the planner answer each frame on /sim/lockstep; a queue of one kept only the
+    later answer when both came together, and the world stepped after the timeout with the
+    previous command (a lockstep run parted from its repetition at load 10-16). Both answers
+    of 15 frames come back to back here; the timeout (30 s) never fires."""
+    from geometry_msgs.msg import TwistStamped
+    from raspv_common.qos import COMMAND_QOS
+
+    graph(sim_graph({"world": "apartment", "step_mode": "lockstep", "lockstep_participants": ["planner"],
+                     "lockstep_timeout": 30.0}))
+    infos = probe.subscribe(topics.CAMERA_INFO, CameraInfo, wait_for_publishers=1, timeout=90)
+    subject = probe.publisher(topics.SIM_LOCKSTEP, TwistStamped, COMMAND_QOS, wait_for_subscribers=1, timeout=60)
+    planner = probe.publisher(topics.SIM_LOCKSTEP, TwistStamped, COMMAND_QOS, wait_for_subscribers=1, timeout=60)
+
+    def stamp(m):
+        return m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+
+    frame = infos.wait(1, timeout=60)[0]
+    for k in range(15):
+        for pub, who in ((planner, "planner"), (subject, "base_link")):
+            answer = TwistStamped()
+            answer.header.stamp, answer.header.frame_id = frame.header.stamp, who
+            answer.twist.angular.z = 0.3 if who == "base_link" else 0.0
+            pub.publish(answer)
+        last = stamp(frame)
+        frame = infos.wait(1, timeout=10, predicate=lambda m: stamp(m) > last + 1e-6)[0]
+        assert stamp(frame) == pytest.approx(last + 1 / 15.0, abs=1e-6), k     # one step per answered frame

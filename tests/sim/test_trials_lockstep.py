@@ -67,3 +67,15 @@ def test_lockstep_participants_hold_and_restart():
     ls.restart()                                                # a new trial: at once, standing still
     assert not ls.answer(0.2, 1.0, 1.0)                         # an answer to a frame before it does not count
     assert ls.poll(100.0) and ls.take() == (0.0, 0.0)
+
+
+def test_strict_lockstep_waits_for_every_answer_however_late():
+    """A scripted session (lockstep_hold) never steps on a timeout: at load 10-16 a frame's answer
+    took over 2 s and the world stepped with the previous command, so a repetition parted."""
+    ls = Lockstep(timeout_s=2.0, participants=frozenset({"planner"}), strict=True)
+    assert ls.poll(0.0) and ls.take() == (0.0, 0.0)
+    ls.published(0.1, wall=10.0)
+    ls.answer(0.1, 0.0, 0.0, who="planner")
+    assert not ls.poll(13.0) and not ls.poll(60.0)              # late: waits, counted once, no timeout
+    assert (ls.late, ls.timeouts, ls.missing()) == (1, 0, ["controller"])
+    assert ls.answer(0.1, 0.7, 0.1) and ls.poll(61.0) and ls.take() == (0.7, 0.1)
