@@ -19,7 +19,7 @@ TARGET_S = 0.3
 # bridge (50 ms) and the bridge, the spare's start and the client (this process, not real-time)
 # share two cores; measured rings under load 2-6: 130-210 ms, 20-kill runs at load 14-36: gaps
 # median 138 ms, a client held up 245 ms by the load alone; with spv starting at normal priority
-# (7 Dec, 68 kills at load 5-14) rings 86-144 ms, gaps over 300 ms in 3 (340-341 ms: the bridge and
+# (7 Dec, 88 kills at load 5-15) rings 86-145 ms, gaps over 300 ms in 3 (340-341 ms: the bridge and
 # the new spv stalled at once, docs/limits.md). The bug this guards against took 1.04 s.
 MARGIN_S = 0.2
 
