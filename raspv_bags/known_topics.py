@@ -42,6 +42,7 @@ KNOWN_TOPICS: dict[str, tuple[str, bool]] = {
     T.SPV_MAP: ("raspv_msgs/msg/PhospheneMap", True),
     T.SPV_SPRITES: ("raspv_msgs/msg/PhospheneSprites", True),
     T.SPV_STATUS: ("std_msgs/msg/String", True),
+    T.HMD_PRESENTATION: ("std_msgs/msg/String", False),
     T.VIZ_SCENE: ("visualization_msgs/msg/MarkerArray", False),
     T.VIZ_STAIRS: ("visualization_msgs/msg/MarkerArray", False),
     T.VIZ_PATH: ("visualization_msgs/msg/MarkerArray", False),
