@@ -104,15 +104,32 @@ def test_the_shipped_count_sweep_rises_and_levels_off_as_documented(tmp_path):
     assert success[0] < 0.25 and min(success[2:]) >= 0.9
 
 
-# (sweep file, its shipped rows, the sample): the count sweep one trial of every count, each of
-# another subject; the learned patient's trained and unseen worlds (docs/experiments.md, "The learned
+# (sweep file, its shipped rows, the sample): the count sweeps one trial of every count, each of
+# another subject (the six-count one with realistic depth among the rows recorded in at most 10 s:
+# ≈ 6 × 8 s); the learned patient's trained and unseen worlds (docs/experiments.md, "The learned
 # virtual patient": one condition, n676, over 2-3 tasks) one trial, drawn among the rows that took at
 # most 4 s to record (≈ 4 × 2-4 s here; their 90-s course trials take up to 30 s).
 SHIPPED_ROWS = [("obstacle_course_sweep", "obstacle_course_sweep.quick.csv", {}),
+                ("obstacle_course_range_sweep", "obstacle_course_range_sweep.quick.csv", {"max_wall_s": 10.0}),
                 ("trained_worlds_learned_sweep", "trained_worlds_learned.quick.csv", {"by_task": False, "max_wall_s": 4.0}),
                 ("trained_worlds_navigate_sweep", "trained_worlds_navigate.quick.csv", {"by_task": False, "max_wall_s": 4.0}),
                 ("unseen_worlds_learned_sweep", "unseen_worlds_learned.quick.csv", {"by_task": False, "max_wall_s": 4.0}),
                 ("unseen_worlds_navigate_sweep", "unseen_worlds_navigate.quick.csv", {"by_task": False, "max_wall_s": 4.0})]
+
+
+@pytest.mark.slow                     # 9999 bootstrap resamples per count and measure
+def test_the_six_count_sweep_with_realistic_depth_shows_no_trend_as_documented():
+    """docs/experiments.md, "The study's six counts with realistic depth": every subject's six
+    trials, the table's success and time, and no ordered trend."""
+    from raspv_experiments.quick_sweep import summarise
+
+    records = read_quick_csv([REPO / "experiments" / "results" / "obstacle_course_range_sweep.quick.csv"])
+    assert len(records) == 72 and len({r.subject for r in records}) == 12
+    levels = ["100", "324", "676", "1156", "1764", "2500"]
+    rows = summarise(records, {"course": 90.0}, FACTOR, levels)
+    assert [round(100 * r.success) for r in rows] == [92, 100, 75, 75, 100, 58]
+    assert [round(r.time_s, 1) for r in rows] == [63.9, 55.6, 70.4, 69.1, 58.9, 71.0]
+    assert [round(t.page_p, 2) for t in ordered_trends(records, {"course": 90.0}, FACTOR, levels)] == [0.87, 0.69, 0.73]
 
 
 @pytest.mark.slow
