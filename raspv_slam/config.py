@@ -31,6 +31,8 @@ class SlamConfig:
     lost_after: int = 10                # consecutive failed frames before the state is LOST (1/3 s at 30 Hz)
     max_frame_translation: float = 0.3  # a frame-to-frame motion larger than this is a failure [m]
     max_frame_rotation_deg: float = 30.0
+    new_map_after: float = 1.0          # lost this long [s of frame stamps] with relocalisation failing: a new
+                                        # sub-map starts (merged when a place of the old one is seen); 0 = never
     # -- keyframes: a new one when the view left the reference (overlap, distance or angle)
     keyframe_overlap: float = 0.7       # share of the reference keyframe's 3-D points still in view
     keyframe_translation: float = 0.25  # [m]
@@ -64,6 +66,8 @@ class SlamConfig:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if not self.new_map_after >= 0:
+            raise ValueError(f"new_map_after must be >= 0 s (0: never start a new map), got {self.new_map_after}")
         if not 0 <= self.min_depth < self.max_depth:
             raise ValueError(f"need 0 <= min_depth < max_depth, got {self.min_depth}, {self.max_depth}")
         if not 0 < self.match_ratio <= 1:

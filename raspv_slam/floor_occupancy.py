@@ -25,12 +25,13 @@ MAX_EXTENT = 300.0          # a grid wider than this [m] keeps the square of thi
 
 
 def floor_points(slam_map: SlamMap, stride: int = STRIDE) -> np.ndarray:
-    """Depth points of every keyframe in M (N, 3)."""
+    """Depth points of every keyframe of the first sub-map in M (N, 3). A sub-map not merged
+    into it yet has a frame of its own (see :mod:`raspv_slam.slam_map`): left out."""
     K = slam_map.intrinsics.scaled(*_small_size(slam_map))
     poses = slam_map.poses()
     with slam_map.lock:
         world_from_slam = slam_map.world_from_slam.copy()
-        keyframes = dict(slam_map.keyframes)
+        keyframes = {k: kf for k, kf in slam_map.keyframes.items() if slam_map.segment.get(k, 0) == 0}
     v, u = np.mgrid[0:K.height:stride, 0:K.width:stride]
     rays = K.rays(u, v).reshape(-1, 3)
     out = []

@@ -9,8 +9,14 @@ For each keyframe the tracker makes (:meth:`LoopCloser.submit`):
 3. **loop**: the place database's best candidates that are not recent and not already linked
    are verified with PnP RANSAC (at least ``loop_min_inliers`` inliers, no pose guess: the
    drift may be large) and dense refinement; each success is a loop edge (robust kernel);
-4. the pose graph (GTSAM, graduated non-convexity) is optimised, edges it judges outliers are
-   dropped and the map's poses replaced; tracking applies the correction at its next frame.
+4. **merge**: when the map has several sub-maps (a new one is started after tracking was lost
+   in an unmapped place), the best candidates of the *other* sub-maps are verified the same way
+   with the relocalisation's stricter ``relocalise_min_inliers``; a verified one merges the two
+   sub-maps: the younger is re-expressed in the older's frame by the one rigid transform the
+   edge gives (:meth:`SlamMap.merge_segments`) and the edge joins the pose graph;
+5. the pose graph of the keyframe's sub-map (GTSAM, graduated non-convexity) is optimised,
+   edges it judges outliers are dropped and the map's poses replaced; tracking applies the
+   correction at its next frame.
 
 The thread runs at the tracker's pace: it never holds the map's lock while it computes, so
 tracking does not wait for it (``background=False`` in the config runs it inline, for tests).
@@ -45,6 +51,7 @@ class LoopCloser:
         self.loop_edges = 0
         self.covisibility_edges = 0
         self.optimisations = 0
+        self.merges = 0
         self.rejected: list[Edge] = []          # judged outliers by the optimisation (removed from the map)
         self.busy_ms: list[float] = []          # time spent per keyframe [ms]
         self.error: BaseException | None = None
@@ -105,9 +112,10 @@ class LoopCloser:
         m.places.add(kf_id, kf.features.descriptors)
         pose = m.pose(kf_id)
         parent = m.parent.get(kf_id)
+        segment = m.segment_of(kf_id)
         new_loop = False
         added = 0
-        near = m.covisible(pose, c.covisible_overlap, exclude={kf_id, parent})
+        near = m.covisible(pose, c.covisible_overlap, exclude={kf_id, parent}, segment=segment)
         for other in near[:c.covisible_keyframes]:
             guess = inverse(m.pose(other)) @ pose
             edge = self._verify(kf_id, other, guess, c.min_inliers, "covisibility")
@@ -115,8 +123,10 @@ class LoopCloser:
                 m.add_edge(edge)
                 added += 1
                 self.covisibility_edges += 1
+        segments = m.segments()
+        own = set(segments.get(segment, ()))
         recent = {k for k in m.keyframes if k > kf_id - c.loop_exclude_recent}
-        tried = set(near[:c.covisible_keyframes]) | recent | {kf_id}
+        tried = set(near[:c.covisible_keyframes]) | recent | {kf_id} | (set(m.keyframes) - own)
         for other, _score in m.places.query(kf.features.descriptors, c.loop_candidates, exclude=tried):
             if m.connected(kf_id, other):
                 continue
@@ -126,10 +136,15 @@ class LoopCloser:
                 added += 1
                 self.loop_edges += 1
                 new_loop = True
+        if len(segments) > 1 and self._merge(kf_id, segment, own):
+            segment = m.segment_of(kf_id)
+            added += 1
+            new_loop = True
         if added:
+            members = set(m.segments().get(segment, ()))
             with m.lock:
                 edges = list(m.edges)
-            poses = m.poses()
+            poses = {k: p for k, p in m.poses().items() if k in members}
             optimised, outliers = optimise(poses, edges, c, fixed=min(poses), solver=self._solver)
             m.remove_edges(outliers)
             self.rejected.extend(outliers)
@@ -139,12 +154,42 @@ class LoopCloser:
             self.optimisations += 1
         self.busy_ms.append((time.perf_counter() - t0) * 1e3)
 
+    def _merge(self, kf_id: int, segment: int, own: set[int]) -> bool:
+        """Look for the keyframe's place in the other sub-maps; when one is verified, merge the
+        younger sub-map into the older (the older's frame stays). True when merged."""
+        c = self.config
+        m = self.map
+        kf = m.keyframes[kf_id]
+        best = None
+        for other, _score in m.places.query(kf.features.descriptors, c.loop_candidates, exclude=own | set(m.transient)):
+            edge, inliers = self._verified(kf_id, other, None, c.relocalise_min_inliers, "loop")
+            if edge is not None and (best is None or inliers > best[1]):
+                best = (edge, inliers)
+        if best is None:
+            return False
+        edge = best[0]
+        other_segment = m.segment_of(edge.a)
+        # S_other ← S_this from the edge: (S_other ← A)(A ← K)(S_this ← K)⁻¹
+        other_from_this = m.pose(edge.a) @ edge.a_from_b @ inverse(m.pose(kf_id))
+        keep, drop = min(segment, other_segment), max(segment, other_segment)
+        keep_from_drop = other_from_this if keep == other_segment else inverse(other_from_this)
+        m.merge_segments(keep, drop, keep_from_drop)
+        m.add_edge(edge)
+        self.merges += 1
+        self.loop_edges += 1
+        return True
+
     def _verify(self, kf_id: int, other: int, guess: np.ndarray | None, min_inliers: int, kind: str) -> Edge | None:
         """An edge other ← kf when the two keyframes register (PnP + dense), else None."""
+        return self._verified(kf_id, other, guess, min_inliers, kind)[0]
+
+    def _verified(self, kf_id: int, other: int, guess: np.ndarray | None, min_inliers: int,
+                  kind: str) -> tuple[Edge | None, int]:
+        """(:meth:`_verify`'s edge, its PnP inliers)."""
         m = self.map
         frame = lambda k: m.frame(k, self.preparer.keyframe_frame)    # noqa: E731
         reg = self.registrar.register(frame(kf_id), frame(other), min_inliers=min_inliers,
                                       predicted_target_from_source=guess)
         if not reg.ok or reg.method == "pnp" or (kind == "loop" and reg.inliers < min_inliers):
-            return None
-        return Edge(other, kf_id, reg.target_from_source, kind)
+            return None, 0
+        return Edge(other, kf_id, reg.target_from_source, kind), reg.inliers

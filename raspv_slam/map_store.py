@@ -3,12 +3,17 @@
 A map folder holds::
 
     map.yaml          format, version, camera, SLAM settings, M ← S, counts
-    keyframes.npz     ids, stamps, poses S ← K, odometry parents, ORB keypoints, descriptors,
-                      3-D points, compressed colour/depth, place-database word histograms
+    keyframes.npz     ids, stamps, poses S ← K, odometry parents, sub-maps, ORB keypoints,
+                      descriptors, 3-D points, compressed colour/depth, place-database word histograms
     pose_graph.npz    edges a ← b with their kind (odometry, covisibility, loop)
     vocabulary.npy    the bag-of-binary-words vocabulary (when the map had one)
     occupancy.yaml    floor-projected occupancy, map_server YAML + PGM (when anchored to a floor)
     building_alignment.yaml   where the map sits on a building map (raspv slam align; kept on re-save)
+
+A map holding sub-maps not merged yet (a new map started after tracking was lost in an
+unmapped place) is saved with them: each keyframe's sub-map is stored (``segments``; version 2,
+version-1 maps are one sub-map), its poses stay in that sub-map's own frame, a later mapping run
+on the loaded map can still merge them, and the floor occupancy is the first sub-map's only.
 
 Arrays are stored without pickling. A map is written into a temporary folder beside the target
 and renamed over it, so a killed process leaves the old map or the new one, never half of one.
@@ -36,7 +41,7 @@ from raspv_slam.pose_graph import EDGE_KINDS
 from raspv_slam.slam_map import Edge, SlamMap
 
 FORMAT = "raspv-slam-map"
-VERSION = 1
+VERSION = 2                        # 2: keyframes carry their sub-map (version 1 maps load as one)
 KEPT_ON_SAVE = (ALIGNMENT_FILE,)   # files other tools add to a map folder, kept when it is saved again
 
 
@@ -59,6 +64,7 @@ def save_map(slam_map: SlamMap, path: str | Path) -> Path:
         poses = slam_map.poses()
         edges = list(slam_map.edges)
         parents = dict(slam_map.parent)
+        segments = dict(slam_map.segment)
         world_from_slam = slam_map.world_from_slam.copy()
         anchored = slam_map.anchored
     words, place_ids, hist = slam_map.places.state()
@@ -78,6 +84,7 @@ def save_map(slam_map: SlamMap, path: str | Path) -> Path:
     np.savez(tmp / "keyframes.npz", ids=ids, stamps=np.array([kf.stamp for kf in keyframes], dtype=np.float64),
              poses=np.array([poses[kf.id] for kf in keyframes], dtype=np.float64).reshape(-1, 4, 4),
              parents=np.array([parents.get(kf.id, -1) for kf in keyframes], dtype=np.int64),
+             segments=np.array([segments.get(kf.id, 0) for kf in keyframes], dtype=np.int64),
              feature_offsets=feature_offsets, keypoints=cat([f.keypoints for f in feats], (0, 2), np.float32),
              descriptors=cat([f.descriptors for f in feats], (0, 32), np.uint8),
              points=cat([f.points for f in feats], (0, 3), np.float32),
@@ -98,6 +105,7 @@ def save_map(slam_map: SlamMap, path: str | Path) -> Path:
             "camera": {"width": K.width, "height": K.height, "fx": K.fx, "fy": K.fy, "cx": K.cx, "cy": K.cy},
             "world_from_slam": [float(v) for v in world_from_slam.ravel()], "anchored": bool(anchored),
             "keyframes": len(keyframes), "edges": len(edges),
+            "sub_maps": len({segments.get(kf.id, 0) for kf in keyframes}),
             "loop_edges": sum(e.kind == "loop" for e in edges), "vocabulary_words": 0 if words is None else len(words),
             "config": slam_map.config.as_dict()}
     (tmp / "map.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
@@ -167,7 +175,9 @@ def load_map(name_or_path: str | Path, config: SlamConfig | None = None) -> Slam
                                              "depth_offsets", "depth", "words", "indexed"))
     g = _npz(path / "pose_graph.npz", shown, ("a", "b", "a_from_b", "kind"))
     n = len(k["ids"])
-    if n != meta.get("keyframes") or any(len(k[x]) != n for x in ("stamps", "poses", "parents", "words", "indexed")) \
+    if "segments" not in k:                                   # version 1: one map
+        k["segments"] = np.zeros(n, np.int64)
+    if n != meta.get("keyframes") or any(len(k[x]) != n for x in ("stamps", "poses", "parents", "segments", "words", "indexed")) \
             or any(len(k[x]) != n + 1 for x in ("feature_offsets", "color_offsets", "depth_offsets")):
         raise SlamMapError(f"{shown}: keyframes.npz does not hold the {meta.get('keyframes')} keyframes map.yaml lists")
     if k["feature_offsets"][-1] != len(k["keypoints"]) or k["color_offsets"][-1] != len(k["color"]) \
@@ -188,7 +198,7 @@ def load_map(name_or_path: str | Path, config: SlamConfig | None = None) -> Slam
         a, b = fo[i], fo[i + 1]
         features = Features(k["keypoints"][a:b], k["descriptors"][a:b], k["points"][a:b], k["octaves"][a:b])
         kf = Keyframe(kf_id, float(k["stamps"][i]), features, k["color"][co[i]:co[i + 1]], k["depth"][do[i]:do[i + 1]])
-        slam_map.add_keyframe(kf, k["poses"][i])
+        slam_map.add_keyframe(kf, k["poses"][i], segment=int(k["segments"][i]))
         if k["parents"][i] >= 0:
             slam_map.parent[kf_id] = int(k["parents"][i])
     known = set(ids)

@@ -20,13 +20,19 @@ class TrackingState(str, enum.Enum):
     LOST = "lost"                    # N consecutive frames failed; relocalising
     RELOCALISED = "relocalised"      # this frame found its place in the map again (after LOST or at start)
     LOOP_CLOSED = "loop_closed"      # a pose-graph correction was applied at this frame
+    NEW_MAP = "new_map"              # lost too long in an unmapped place: a new sub-map starts here (map_id changes)
+    MAP_MERGED = "map_merged"        # this sub-map was recognised in an older one and re-expressed in its frame
 
 
 @dataclass
 class SlamResult:
     """One frame's result. ``map_from_camera`` is None while lost or initialising;
     ``odom_from_camera`` never jumps; ``map_from_odom`` is the correction (jumps at loop
-    closures and relocalisations): map_from_camera = map_from_odom @ odom_from_camera."""
+    closures, relocalisations and merges): map_from_camera = map_from_odom @ odom_from_camera.
+    ``map_id``: the sub-map whose frame ``map_from_camera`` is in (0 = the first map). A new
+    sub-map's frame continues the last pose before LOST (the motion while lost is unknown), so
+    its poses are not in the first map's frame: when ``map_id`` changes the world did, until a
+    merge (state map_merged) brings the id back and moves ``map_from_odom``."""
 
     stamp: float
     state: TrackingState
@@ -36,6 +42,7 @@ class SlamResult:
     keyframe_id: int | None          # the reference keyframe the frame was tracked against
     inliers: int                     # PnP inliers of the frame (0 when the dense registration alone tracked it)
     time_ms: float                   # processing time of this frame (wall clock)
+    map_id: int = 0
 
 
 @dataclass

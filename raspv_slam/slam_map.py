@@ -2,7 +2,14 @@
 the map frame (no ROS).
 
 Frames: S is the SLAM frame (the first keyframe's camera frame of the run that built the map);
-keyframe poses are S ← K. M is the map frame users see: M ← S is the identity-like "level
+keyframe poses are S ← K.
+
+Sub-maps (ORB-SLAM's atlas, at this project's scale): every keyframe belongs to one sub-map
+(``segment``, 0 = the first map). A sub-map started after tracking was lost in an unmapped place
+is a disconnected part of the pose graph whose poses are in a frame S_j of its own (placed where
+the last tracked pose was, since the motion while lost is unknown); nothing relates S_j to S
+until a place of another sub-map is recognised and verified, when :meth:`merge_segments`
+re-expresses it in the older sub-map's frame with one rigid transform. M is the map frame users see: M ← S is the identity-like "level
 camera" turn until the map is anchored to a floor, then gravity-aligned (z up, z = 0 on the
 floor). Thread-safe: tracking reads while the loop closer adds edges and corrects poses.
 """
@@ -51,6 +58,9 @@ class SlamMap:
         self.lock = threading.RLock()
         self.generation = 0                         # counts pose corrections
         self.loop_generation = 0                    # counts corrections that closed a loop
+        self.merge_generation = 0                   # counts sub-map merges
+        self.segment: dict[int, int] = {}           # keyframe → its sub-map (0: the first map)
+        self._next_segment = 1
         self._next_id = 0
         self._frames: OrderedDict[int, object] = OrderedDict()
 
@@ -66,12 +76,16 @@ class SlamMap:
 
     def add_keyframe(self, kf: Keyframe, slam_from_kf: np.ndarray, parent: int | None = None,
                      parent_from_kf: np.ndarray | None = None, transient: bool = False,
-                     parent_pose_seen: np.ndarray | None = None) -> None:
+                     parent_pose_seen: np.ndarray | None = None, segment: int | None = None) -> None:
         """``parent_pose_seen``: the parent's S ← K the caller composed ``slam_from_kf`` with; a
         loop correction applied since then moves the new keyframe with its parent (it must not
-        be left at the stale pose)."""
+        be left at the stale pose). ``segment``: its sub-map (default: the parent's, else 0);
+        a merge since the caller read the parent's pose moves it with the parent too."""
         with self.lock:
             self.keyframes[kf.id] = kf
+            if segment is None:
+                segment = self.segment.get(parent, 0) if parent is not None else 0
+            self.segment[kf.id] = segment
             if parent_pose_seen is not None and parent in self._poses:
                 slam_from_kf = self._poses[parent] @ inverse(parent_pose_seen) @ np.asarray(slam_from_kf, np.float64)
             # stored rigid: a pose composed with the inverse (transpose) of a slightly skewed one
@@ -95,6 +109,7 @@ class SlamMap:
                     return
                 self.transient.remove(old)
                 del self.keyframes[old], self._poses[old]
+                self.segment.pop(old, None)
                 self._frames.pop(old, None)
 
     @property
@@ -153,14 +168,16 @@ class SlamMap:
                 self.loop_generation += 1
 
     def nearby(self, slam_from_camera: np.ndarray, radius: float, angle_deg: float,
-               exclude: set[int] = frozenset()) -> list[int]:
+               exclude: set[int] = frozenset(), segment: int | None = None) -> list[int]:
         """Keyframes within ``radius`` metres and ``angle_deg`` of a pose, nearest first
-        (distance plus angle weighted 1 m per 60°)."""
+        (distance plus angle weighted 1 m per 60°); with ``segment``, only that sub-map's (the
+        pose is in its frame; other sub-maps' poses are in frames of their own)."""
         with self.lock:
             items = list(self._poses.items())
+            segments = dict(self.segment)
         out = []
         for k, p in items:
-            if k in exclude:
+            if k in exclude or (segment is not None and segments.get(k) != segment):
                 continue
             dt, dr = pose_distance(p, slam_from_camera)
             if dt <= radius and dr <= angle_deg:
@@ -180,15 +197,48 @@ class SlamMap:
         return float(((z > self.config.min_depth) & self.intrinsics.contains(u, v)).mean())
 
     def covisible(self, slam_from_camera: np.ndarray, min_overlap: float, exclude: set[int] = frozenset(),
-                  radius: float = 2.0, angle_deg: float = 90.0) -> list[int]:
-        """Keyframes (within ``radius`` and ``angle_deg`` of the pose) sharing at least
-        ``min_overlap`` of their points with a camera at that pose, most shared first."""
+                  radius: float = 2.0, angle_deg: float = 90.0, segment: int | None = None) -> list[int]:
+        """Keyframes (of ``segment``, within ``radius`` and ``angle_deg`` of the pose) sharing at
+        least ``min_overlap`` of their points with a camera at that pose, most shared first."""
         scored = []
-        for k in self.nearby(slam_from_camera, radius, angle_deg, exclude):
+        for k in self.nearby(slam_from_camera, radius, angle_deg, exclude, segment):
             overlap = self.view_overlap(k, inverse(self.pose(k)) @ slam_from_camera)
             if overlap >= min_overlap:
                 scored.append((-overlap, k))
         return [k for _, k in sorted(scored)]
+
+    # -- sub-maps -------------------------------------------------------------------------------
+    def new_segment(self) -> int:
+        """A fresh sub-map id (its first keyframe is added with ``segment=`` that id)."""
+        with self.lock:
+            self._next_segment = max(self._next_segment, max(self.segment.values(), default=0) + 1)
+            self._next_segment += 1
+            return self._next_segment - 1
+
+    def segment_of(self, kf_id: int) -> int:
+        with self.lock:
+            return self.segment.get(kf_id, 0)
+
+    def segments(self) -> dict[int, list[int]]:
+        """Sub-map → its keyframes (localisation's transient ones included)."""
+        with self.lock:
+            out: dict[int, list[int]] = {}
+            for k, s in self.segment.items():
+                out.setdefault(s, []).append(k)
+            return out
+
+    def merge_segments(self, keep: int, drop: int, keep_from_drop: np.ndarray) -> int:
+        """Re-express every keyframe of sub-map ``drop`` in the frame of ``keep`` (S_keep ←
+        S_drop, one rigid transform) and make them part of it. Returns the keyframes moved."""
+        T = nearest_rigid(np.asarray(keep_from_drop, dtype=np.float64))
+        with self.lock:
+            moved = [k for k, s in self.segment.items() if s == drop]
+            for k in moved:
+                self._poses[k] = nearest_rigid(T @ self._poses[k])
+                self.segment[k] = keep
+            self.generation += 1
+            self.merge_generation += 1
+            return len(moved)
 
     # -- decoded keyframes --------------------------------------------------------------------
     def frame(self, kf_id: int, make: Callable[[Keyframe], object]):

@@ -3,7 +3,10 @@
 Per frame (:meth:`SlamSystem.process`): the frame is registered to its reference keyframe
 (ORB + PnP, refined by dense RGB-D registration, :mod:`frame_registration`); when that fails
 the constant-velocity motion model carries the pose, and after ``lost_after`` failures the
-state is LOST and every frame tries to relocalise in the map (place recognition + PnP). When
+state is LOST and every frame tries to relocalise in the map (place recognition + PnP). Lost for
+``new_map_after`` seconds in a place the map does not know, a new sub-map starts (NEW_MAP, its
+own frame, ``map_id``); the loop closer keeps looking for the older maps' places and merges the
+sub-maps when it finds one (MAP_MERGED, ORB-SLAM's atlas at this project's scale). When
 the view leaves the reference keyframe, a nearby keyframe is reused or a new one is made; the
 loop closer (:mod:`loop_closing`, a background thread) links it to covisible keyframes and to
 places seen before and optimises the pose graph; tracking picks the corrected poses up at its
@@ -66,12 +69,15 @@ class SlamSystem:
         self.odom_from_camera = np.eye(4)
         self.map_from_odom = np.eye(4)
         self._loop_generation = self.map.loop_generation
+        self.map_id = 0                              # the sub-map of the last result
+        self.lost_since: float | None = None         # stamp at which tracking was lost [s]
         self._history: OrderedDict[float, tuple[int, np.ndarray]] = OrderedDict()
         self._last_tracked: tuple[Frame, int, np.ndarray] | None = None
         self._recent: deque[tuple[Frame, int, np.ndarray]] = deque(maxlen=config.keyframe_candidates)
         self._trajectory: list[tuple[float, int, np.ndarray]] = []     # every placed frame: stamp, ref, ref ← C
         self.counts = {"frames": 0, "tracked": 0, "predicted": 0, "lost": 0, "relocalised": 0, "loops": 0,
-                       "to_last_frame": 0}
+                       "to_last_frame": 0,
+                       "new_maps": 0, "merges": 0}
 
     # -- per frame ----------------------------------------------------------------------------
     def process(self, stamp: float, rgb: np.ndarray | None, depth: np.ndarray | None) -> SlamResult:
@@ -87,12 +93,22 @@ class SlamSystem:
             state = self._initialise(frame)
         elif self.ref is None or self.state == TrackingState.LOST:
             state, inliers = self._relocalise(frame)
+            if state == TrackingState.LOST and self._new_map_due(frame.stamp):
+                state = self._start_new_map(frame)
         else:
             state, inliers = self._track(frame)
-            if state == TrackingState.TRACKING and loop_closed:
+            if state == TrackingState.TRACKING and self._map_id_now() != self.map_id:
+                state = TrackingState.MAP_MERGED      # tracked on: only a merge changes the sub-map
+                self.counts["merges"] += 1
+            elif state == TrackingState.TRACKING and loop_closed:
                 state = TrackingState.LOOP_CLOSED
                 self.counts["loops"] += 1
+        if state == TrackingState.LOST and self.lost_since is None:
+            self.lost_since = frame.stamp
+        elif state != TrackingState.LOST:
+            self.lost_since = None
         self.state = state
+        self.map_id = self._map_id_now()
         map_from_camera = None
         if state not in (TrackingState.LOST, TrackingState.INITIALISING):
             slam_from_camera = self.map.pose(self.ref) @ self.ref_from_camera
@@ -103,7 +119,8 @@ class SlamSystem:
             while len(self._history) > HISTORY:
                 self._history.popitem(last=False)
         return SlamResult(float(stamp), state, map_from_camera, self.odom_from_camera.copy(),
-                          self.map_from_odom.copy(), self.ref, inliers, (time.perf_counter() - t0) * 1e3)
+                          self.map_from_odom.copy(), self.ref, inliers, (time.perf_counter() - t0) * 1e3,
+                          self.map_id)
 
     def _initialise(self, frame: Frame) -> TrackingState:
         if not frame.has_depth or len(frame.features.with_depth) < self.config.min_inliers:
@@ -159,7 +176,8 @@ class SlamSystem:
                 and self._view_overlap(self.ref, self.ref_from_camera) >= c.keyframe_overlap):
             return
         slam_from_camera = self.map.pose(self.ref) @ self.ref_from_camera
-        for kf_id in self.map.nearby(slam_from_camera, c.reuse_radius, c.reuse_angle_deg, exclude={self.ref})[:3]:
+        for kf_id in self.map.nearby(slam_from_camera, c.reuse_radius, c.reuse_angle_deg, exclude={self.ref},
+                                     segment=self.map.segment_of(self.ref))[:3]:
             kf_from_camera = inverse(self.map.pose(kf_id)) @ slam_from_camera
             if self._view_overlap(kf_id, kf_from_camera) < c.keyframe_overlap:
                 continue
@@ -211,18 +229,50 @@ class SlamSystem:
         self.counts["relocalised"] += 1
         return TrackingState.RELOCALISED, found[1].inliers
 
+    def _map_id_now(self) -> int:
+        return self.map.segment_of(self.ref) if self.ref is not None else self.map_id
+
+    def _new_map_due(self, stamp: float) -> bool:
+        """Lost for ``new_map_after`` seconds (by frame stamps) while mapping."""
+        after = self.config.new_map_after
+        return (not self.localisation_only and after > 0 and self.lost_since is not None
+                and stamp - self.lost_since >= after)
+
+    def _start_new_map(self, frame: Frame) -> TrackingState:
+        """A new sub-map with this frame as its first keyframe, in a frame of its own: S_j is
+        placed so the camera is where the last tracked pose left it (``map_from_odom`` does not
+        jump; the motion while lost is unknown). LOST when the frame cannot start a map."""
+        if not frame.has_depth or len(frame.features.with_depth) < self.config.min_inliers:
+            return TrackingState.LOST
+        with self.map.lock:
+            slam_from_map = inverse(self.map.world_from_slam)
+        segment = self.map.new_segment()
+        self.ref = self._add_keyframe(frame, slam_from_map @ self.map_from_odom @ self.odom_from_camera, None, None,
+                                      segment=segment)
+        self.ref_from_camera = np.eye(4)
+        self.velocity = np.eye(4)
+        self.failures = 0
+        self._last_tracked = None
+        self._recent.clear()
+        self.counts["new_maps"] += 1
+        self.counts["tracked"] += 1
+        return TrackingState.NEW_MAP
+
     def _add_keyframe(self, frame: Frame, slam_from_camera: np.ndarray, parent: int | None,
-                      parent_from_kf: np.ndarray | None, parent_pose_seen: np.ndarray | None = None) -> int:
+                      parent_from_kf: np.ndarray | None, parent_pose_seen: np.ndarray | None = None,
+                      segment: int | None = None) -> int:
         color, depth = encode_images(frame.small_rgb, frame.small_depth)
         kf = Keyframe(self.map.new_id(), frame.stamp, frame.features, color, depth)
         if self.localisation_only:
             # outside the mapped views: a transient keyframe to track against (never saved, not a
             # place to relocalise in; the oldest are dropped)
-            self.map.add_keyframe(kf, slam_from_camera, transient=True)
+            self.map.add_keyframe(kf, slam_from_camera, transient=True,
+                                  segment=self.map.segment_of(parent) if parent is not None else 0)
             keep = {parent} | ({self._last_tracked[1]} if self._last_tracked is not None else set())
             self.map.prune_transient(TRANSIENT_KEYFRAMES, keep=keep)
             return kf.id
-        self.map.add_keyframe(kf, slam_from_camera, parent, parent_from_kf, parent_pose_seen=parent_pose_seen)
+        self.map.add_keyframe(kf, slam_from_camera, parent, parent_from_kf, parent_pose_seen=parent_pose_seen,
+                              segment=segment)
         self.loop_closer.submit(kf.id)
         return kf.id
 
