@@ -3,6 +3,7 @@ mode and finds frames it never saw as keyframes at their true poses (no initial 
 after the camera was covered and carried elsewhere), without touching the files on disk; bad
 maps are one line each, through the launcher's ``slam_map`` file kind too."""
 import hashlib
+import re
 
 import numpy as np
 import pytest
@@ -97,7 +98,21 @@ def test_bad_maps_are_one_clear_line(saved_map, tmp_path, monkeypatch):
     assert "keyframes.npz is damaged" in line and "\n" not in line
     newer = tmp_path / "newer"
     shutil.copytree(saved_map[0], newer)
-    text = (newer / "map.yaml").read_text().replace("version: 1", "version: 99")
+    text = re.sub(r"^version: \d+$", "version: 99", (newer / "map.yaml").read_text(), flags=re.M)
     (newer / "map.yaml").write_text(text)
     with pytest.raises(SlamMapError, match="version 99"):
         load_map(newer)
+
+
+def test_a_map_saved_before_sub_maps_loads_as_one_map(saved_map, tmp_path):
+    """Format version 1 (no ``segments`` array): every keyframe in the first map."""
+    import shutil
+
+    old = tmp_path / "v1"
+    shutil.copytree(saved_map[0], old)
+    with np.load(old / "keyframes.npz") as data:
+        arrays = {k: data[k] for k in data.files if k != "segments"}
+    np.savez(old / "keyframes.npz", **arrays)
+    (old / "map.yaml").write_text(re.sub(r"^version: \d+$", "version: 1", (old / "map.yaml").read_text(), flags=re.M))
+    m = load_map(old)
+    assert len(m) == saved_map[2] and set(m.segments()) == {0}
