@@ -165,7 +165,8 @@ def bench_sequence(path: Path, args) -> dict[str, float]:
           f"distortion {'yes' if rec.distortion else 'no'}); load average {_load()}")
     s = run_slam(frames, rec.intrinsics, config, odometry=True)
     slam = s["slam"]
-    online = [(r.stamp, r.map_from_camera) for r in s["results"] if r.map_from_camera is not None]
+    online = [(r.stamp, r.map_from_camera) for r in s["results"]
+              if r.map_from_camera is not None and r.map_id == 0]          # not a new map's own frame
     e_final = _errors(gt_stamps, gt_poses, *s["final"])
     e_online = _errors(gt_stamps, gt_poses, np.array([t for t, _ in online]), np.array([p for _, p in online]))
     c = slam.counts
@@ -181,7 +182,7 @@ def bench_sequence(path: Path, args) -> dict[str, float]:
     _row("RGBDOdometry", e_odo, f"tracked {100 * o['tracked'] / max(1, o['frames']):5.1f} %", o["wall"], o["cpu"])
     print(f"  SLAM frames: {c['tracked']} tracked ({c['to_last_frame']} through the last frame), {c['predicted']} "
           f"predicted by the motion model, {c['relocalised']} relocalised, {c['lost']} lost, {c['loops']} with a "
-          f"loop correction")
+          f"loop correction, {c['new_maps']} new maps, {c['merges']} merged")
     ratios = {}
     if e_final and e_odo:
         ratios = {"odometry_ate": e_odo.ate_rmse / e_final.ate_rmse,
@@ -222,7 +223,7 @@ def bench_split(frames, rec, config, gt_stamps, gt_poses) -> None:
         first["slam"].save(Path(tmp) / "half")
         loc = run_slam(frames[half:], rec.intrinsics, config, load_map(Path(tmp) / "half", config), True)
     results = loc["results"]
-    placed = [r for r in results if r.map_from_camera is not None]
+    placed = [r for r in results if r.map_from_camera is not None and r.map_id == 0]
     first_reloc = next((i for i, r in enumerate(results) if r.state == TrackingState.RELOCALISED), None)
     e = _errors(gt_stamps, gt_poses, np.array([r.stamp for r in placed]), np.array([r.map_from_camera for r in placed]))
     when = "never" if first_reloc is None else f"frame {first_reloc} ({results[first_reloc].stamp - results[0].stamp:.2f} s)"

@@ -120,7 +120,8 @@ def _summary(results, slam) -> str:
     c = slam.counts
     n = max(1, c["frames"])
     return (f"{c['frames']} frames: {c['tracked']} tracked ({100 * c['tracked'] / n:.1f} %), "
-            f"{c['predicted']} predicted, {c['relocalised']} relocalised, {c['lost']} lost; "
+            f"{c['predicted']} predicted, {c['relocalised']} relocalised, {c['lost']} lost, "
+            f"{c['new_maps']} new maps, {c['merges']} merged; "
             f"{len(slam.map)} keyframes, {sum(e.kind == 'loop' for e in slam.map.edges)} loop edges; "
             f"{np.median(times):.1f} ms per frame median, {np.percentile(times, 95):.1f} ms p95")
 
@@ -249,7 +250,7 @@ def _draw_alignment(args, alignment, what: str) -> None:
 
 
 def _localised(results):
-    placed = [r for r in results if r.map_from_camera is not None]
+    placed = [r for r in results if r.map_from_camera is not None and r.map_id == 0]   # the map's own frame
     return np.array([r.stamp for r in placed]), np.array([r.map_from_camera for r in placed]).reshape(-1, 4, 4)
 
 

@@ -8,7 +8,9 @@ frame ``map``) — so perception, the planner and the spv node use either unchan
   ``odom → base_link`` (continuous) per frame, through the source's mounting
   (:class:`~raspv_common.tf_messages.CameraPoseTf`);
 - ``/slam/state`` (std_msgs/String JSON, transient-local), per processed frame: its stamp, the
-  tracking state (initialising, tracking, lost, relocalised, loop_closed), reference keyframe,
+  tracking state (initialising, tracking, lost, relocalised, loop_closed, new_map, map_merged),
+  ``map_id`` (the sub-map the pose is in: 0 the first map; another after a new map was started
+  while lost in an unmapped place, until it is merged back), reference keyframe,
   inliers, time, frames processed and dropped; the spv node puts the state into ``/spv/status``;
 - ``/slam/markers`` (MarkerArray, map frame): keyframes, trajectory, landmarks, loop edges
   (:mod:`raspv_viz.slam_markers`), while someone subscribes;
@@ -93,6 +95,7 @@ class SlamNode(RaspvNode):
         self.first_frame_s: float | None = None
         self.counts = {"frames": 0, "dropped": 0}
         self._last_state: str | None = None
+        self._last_map_id = 0
         self._markers_sent = 0.0
         self._last_key: int | None = None
         self.create_subscription(CameraInfo, topics.CAMERA_INFO, self.on_camera_info, SENSOR_QOS)
@@ -236,7 +239,12 @@ class SlamNode(RaspvNode):
         if state != self._last_state and self._last_state is not None:
             self.get_logger().info(f"tracking state: {self._last_state} → {state}")
         self._last_state = state
-        doc = {"state": state, "stamp": result.stamp, "keyframe": result.keyframe_id, "inliers": result.inliers,
+        if result.map_id != self._last_map_id:
+            self.get_logger().info(f"map {self._last_map_id} → {result.map_id} ({state}): "
+                                   + ("poses are in a new map's frame until it is merged"
+                                      if result.state.value == "new_map" else "poses are in that map's frame"))
+            self._last_map_id = result.map_id
+        doc = {"state": state, "map_id": result.map_id, "stamp": result.stamp, "keyframe": result.keyframe_id, "inliers": result.inliers,
                "time_ms": round(result.time_ms, 1), "mode": self.params["mode"], "anchored": self.anchored,
                "frames": self.counts["frames"], "dropped": self.counts["dropped"],
                "map": str(self.map_path) if self.map_path else ""}

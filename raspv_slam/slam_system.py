@@ -291,6 +291,8 @@ class SlamSystem:
         if key is None or abs(key - stamp) > STAMP_TOLERANCE_S:
             raise ValueError(f"no tracked frame with stamp {stamp:.3f}")
         ref, ref_from_camera = self._history[key]
+        if self.map.segment_of(ref) != 0:
+            raise ValueError(f"the frame with stamp {stamp:.3f} is in a new map not merged into the first one")
         self.map.anchor(world_from_floor_plane(np.asarray(floor_plane, np.float64), self.map.pose(ref) @ ref_from_camera))
 
     # -- the map ------------------------------------------------------------------------------
@@ -318,13 +320,17 @@ class SlamSystem:
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         """(stamps (N,), poses M ← C (N, 4, 4)) of every frame placed so far, relative to its
         reference keyframe's pose *now* (after every correction): the trajectory SLAM
-        benchmarks evaluate (ORB-SLAM's SaveTrajectoryTUM)."""
+        benchmarks evaluate (ORB-SLAM's SaveTrajectoryTUM). Frames in a new sub-map not merged
+        into the first map are left out (their poses are in a frame of their own)."""
         if self.loop_closer is not None:
             self.loop_closer.wait_idle()
         poses = self.map.poses()
         with self.map.lock:
             world_from_slam = self.map.world_from_slam.copy()
-        kept = [(t, ref, rel) for t, ref, rel in self._trajectory if ref in poses]   # localisation drops transients
+        with self.map.lock:
+            first_map = {k for k, seg in self.map.segment.items() if seg == 0}
+        kept = [(t, ref, rel) for t, ref, rel in self._trajectory
+                if ref in poses and ref in first_map]            # localisation drops transients
         stamps = np.array([t for t, _, _ in kept])
         out = np.array([world_from_slam @ poses[ref] @ rel for _, ref, rel in kept]).reshape(-1, 4, 4)
         return stamps, out

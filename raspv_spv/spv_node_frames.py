@@ -7,9 +7,11 @@ K_C·K_P⁻¹), so the node publishes ``<camera optical frame> → phosphene`` (
 /tf_static once camera info names that frame: RViz and Foxglove can lay it over the scene.
 
 A graph whose pose comes from the `slam` node publishes its tracking state on ``/slam/state``
-(std_msgs/String JSON, transient-local: ``{"state": "TRACKING" | "LOST" | …, …}``). The spv node
-keeps the newest and puts ``{"localisation": {"source": "slam", "state": …}}`` into its latched
-``/spv/status``, published again when the state changes (not on every frame). A graph without a
+(std_msgs/String JSON, transient-local: ``{"state": "tracking" | "lost" | "new_map" | …,
+"map_id": 0, …}``). The spv node keeps the newest and puts ``{"localisation": {"source": "slam",
+"state": …, "map_id": …}}`` into its latched ``/spv/status`` (``map_id`` when the slam node
+sends one: another than 0 means the poses are in a new sub-map's frame, not the first map's),
+published again when either changes (not on every frame). A graph without a
 slam node has no such key. A mixin of :class:`raspv_spv.spv_node.SpvNode`.
 """
 from __future__ import annotations
@@ -47,13 +49,18 @@ class SpvFrames:
 
     def on_slam_state(self, msg: String) -> None:
         try:
-            state = json.loads(msg.data)["state"]
-        except (json.JSONDecodeError, KeyError, TypeError):
+            doc = json.loads(msg.data)
+            state = doc["state"]
+            map_id = doc.get("map_id")
+        except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
             self.warn_throttled("slam-state", f"ignoring {topics.SLAM_STATE}: not a JSON object with a 'state'")
             return
-        if self.localisation is not None and self.localisation["state"] == state:
+        localisation = {"source": "slam", "state": str(state)}
+        if isinstance(map_id, int) and not isinstance(map_id, bool):
+            localisation["map_id"] = map_id
+        if localisation == self.localisation:
             return
-        self.localisation = {"source": "slam", "state": str(state)}
+        self.localisation = localisation
         shown = getattr(self, "_shown", None)
         if shown is not None:
             self._publish_status(shown[2], shown[0].config.mode, self.producers.states())

@@ -123,8 +123,10 @@ def test_slam_keeps_a_floor_point_in_the_map_frame_across_a_pan(graph, probe, tm
     last_t, last_T = got[-1]
     assert watch.tree.lookup(frames.MAP, frames.CAMERA_OPTICAL, last_t) == pytest.approx(last_T, abs=1e-6)
     final = json.loads(states.messages[-1].data)["state"]
+    assert json.loads(states.messages[-1].data)["map_id"] == 0                    # never lost: the first map
     status.wait(1, timeout=30, predicate=lambda m: json.loads(m.data).get("localisation") == {"source": "slam",
-                                                                                              "state": final})
+                                                                                              "state": final,
+                                                                                              "map_id": 0})
 
     # saved while running (a killed node loses at most one autosave period), on request, at the stop
     deadline = time.monotonic() + 60
