@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -297,57 +298,10 @@ def system_onsets(log: ProbeLog, results, receipt: np.ndarray, stamps: np.ndarra
     return out
 
 
-def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph_path: Path,
-                      sample_ms: float = 2.0) -> tuple[list, list, list]:
-    """Onset, 50 % and half-way-to-the-new-view latency [ms] of the temporal model alone, one
-    entry per measured step (None where a step has no settled levels): the step's settled levels
-    before → after, switched at once and displayed every ``sample_ms`` through the node's own
-    temporal model offline (the recursive model's pulse clock at a different phase for each
-    step; the look-up table at its frame rate), with the same criteria as at the client."""
-    from raspv_bringup.graph import load_graph
-    from raspv_bench.motion_latency import analyse_steps, reduce_frame
-    from raspv_spv.config import config_from_node_params
-    from raspv_spv.simulator import PhospheneSimulator
-    from raspv_spv.spv_params import PARAMS
-
-    graph = load_graph(graph_path, config_overrides)
-    entry = next(n for n in graph.nodes if n.kind == "spv")
-    params = {p.name: p.default for p in PARAMS}
-    params.update(entry.params)
-    sim = PhospheneSimulator(config_from_node_params(params))
-    recursive = sim.config.temporal_update == "recursive"
-    dt = sample_ms / 1e3 if recursive else 1.0 / params["rate"]
-    with log.lock:
-        frames = list(log.frames)
-    onset, half, halfway = [None] * len(results), [None] * len(results), [None] * len(results)
-    for i, r in enumerate(results):
-        pre = [f for f in frames if f[0] < r.sent]
-        post = [f for f in frames if r.sent + 0.8 < f[0] < r.sent + 1.2]
-        if not pre or not post or pre[-1][2].shape != (sim.count,) or post[-1][2].shape != (sim.count,):
-            continue
-        sim.reset()
-        # the step at every phase of the recursive model's pulse clock (pulses at k/pulse_rate)
-        phase = (0.618034 * i) % 1.0 / sim.config.pulse_rate if recursive else 0.0
-        images, times = [], []
-        settle, steps = 0.6 + phase, int(1.2 / dt)
-        for k in range(steps):
-            t = k * dt
-            levels = pre[-1][2] if t < settle else post[-1][2]
-            b = sim.brightness(levels, at_s=t) if recursive else sim.brightness(levels)
-            images.append(reduce_frame(sim.render(b)))
-            times.append(t)
-        step = (math.ceil(settle / dt) * dt if recursive else int(round(settle / dt)) * dt) - 1e-6
-        res, _ = analyse_steps(np.array(times), np.array(times), np.stack(images), np.array([step]))
-        if res:
-            onset[i] = None if res[0].onset_s is None else 1e3 * res[0].onset_s
-            half[i] = None if res[0].half_s is None else 1e3 * res[0].half_s
-            halfway[i] = None if res[0].halfway_s is None else 1e3 * res[0].halfway_s
-    return onset, half, halfway
-
-
 def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) -> list[str]:
     from raspv_bringup.testing import Probe, RunningGraph
     from raspv_common.thread_priority import raise_thread_priority
+    from raspv_bench.e2e_steps import format_rows, save_probe_log, slowest_summary, step_rows, temporal_build_up
     from raspv_bench.motion_latency import analyse_steps
 
     print(f"\n{label}  [{' '.join(overrides)}]")
@@ -364,7 +318,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
             if time.monotonic() > deadline or not g.running():
                 raise RuntimeError(f"no lit phosphene frame within 120 s:\n{g.output[-2000:]}")
             time.sleep(0.2)
-        cpu0, ticks0 = g.cpu_by_kind(), g.machine_ticks()
+        cpu0, ticks0, load0 = g.cpu_by_kind(), g.machine_ticks(), os.getloadavg()[0]
         t0 = time.monotonic()
         out = workdir / "steps.npz"
         gaze = all(o in overrides for o in GAZE_SETTINGS)
@@ -409,7 +363,8 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
               f"{filled}")
     loads = RunningGraph.cpu_share(cpu0, cpu1, wall)
     if loads:
-        print(f"  CPU while stepping (of one core): {loads}; {RunningGraph.machine_share(ticks0, ticks1)}")
+        print(f"  CPU while stepping (of one core): {loads}; {RunningGraph.machine_share(ticks0, ticks1)}; "
+              f"load average {load0:.1f} before, {os.getloadavg()[0]:.1f} after")
     print("  breakdown by stage (stamps carried by the messages):")
     stages = (gaze_breakdown(log, results, list(step_times), list(step_yaws)) if gaze
               else breakdown(log, results, list(step_times), list(step_yaws), args.amplitude))
@@ -418,6 +373,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     temporal_on = any("spv.temporal:=true" == o for o in overrides)
     system = system_onsets(log, results, receipt, stamps)
     print(f"  onset counted by the system (first frame whose levels changed, at the client) [ms] {_stats(system)}")
+    b_halfway = None
     if temporal_on:
         b_onset, b_half, b_halfway = temporal_build_up(log, results, ["bridge.port:=0", *overrides], graph_path)
         print(f"  the temporal model's own rise (same steps of levels, offline): onset [ms] {_stats(b_onset)}; "
@@ -447,6 +403,19 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
             failures.append(f"{label}: onset p95 {np.percentile(valid_onset, 95):.1f} ms > {ONSET_TARGET_MS:g} ms")
         if valid_half and np.percentile(valid_half, 95) > HALF_TARGET_MS:
             failures.append(f"{label}: 50 % p95 {np.percentile(valid_half, 95):.1f} ms > {HALF_TARGET_MS:g} ms")
+    if not gaze:
+        save_probe_log(log, workdir / "probe.npz")
+        rows = step_rows(log, results, list(step_times), list(step_yaws), args.amplitude, b_halfway, system)
+        print("  per step [ms from the step's first head message; lv*: the display's levels (/spv/frame): lv1st the "
+              "share of their change in the first changed tick, lvhalf the tick half-way, lvsrc its camera frame "
+              "(< 0: taken before the step); cam: the first camera frame looking the new way, camgap its interval "
+              "from the one before; scene, shown: it out of scene perception, on the display; imgsrc: the camera "
+              "frame of the client's half-way image]:")
+        for line in format_rows(rows):
+            print(f"    {line}")
+        if temporal_on:
+            print(f"  slowest steps by half-way less the model's own: {slowest_summary(rows)}")
+        print(f"  (the client's frames and the probe's messages: {out}, {workdir / 'probe.npz'})")
     return failures
 
 

@@ -93,10 +93,11 @@ def _transition(dt: float, tau3: float, tau2: float, k: float) -> np.ndarray:
     return m
 
 
-def _output_row(dt: float, tau3: float) -> np.ndarray:
-    """x3 after ``dt`` ms of free decay, as weights of (x1, x2, x3)."""
+def _output_row(dt: float, tau3: float, scale: float = 1.0) -> np.ndarray:
+    """x3 after ``dt`` ms of free decay, times ``scale``, as float32 weights of (x1, x2, x3)."""
     a = dt / tau3
-    return math.exp(-a) * np.array([a * a / 2, a, 1.0])
+    e = math.exp(-a) * scale
+    return np.array([e * a * a / 2, e * a, e], DTYPE)
 
 
 @functools.lru_cache(maxsize=8)
@@ -120,34 +121,44 @@ class RecursiveModel:
         # grid point (3 rows: one take and one multiply-add interpolate) and the derivative in d
         # (3 rows; not interpolated: the d term is ~1e-4 of the burst, its interpolation 1e-3 of
         # that); column G is 0: past the grid, and where no pulse is delivered
+        # (11, G + 2): per r2 grid point, the state a pulse adds (x1, x2, x3), the pulse's own
+        # charge (r2, ca; not scaled by Nanduri's gain), the step to the next grid point (3 rows:
+        # one take and one multiply-add interpolate) and the derivative in d (3 rows; not
+        # interpolated: the d term is ~1e-4 of the burst, its interpolation 1e-3 of that); columns
+        # G and G + 1 are 0: past the grid, and where no pulse is delivered. One take of the rows
+        # (axis 1) per pulse, every later operation on contiguous (3, N) rows
         g = b.full.shape[0]
-        table = np.zeros((9, g + 1))
+        table = np.zeros((11, g + 2))
         table[:3, :g] = b.full.T
-        table[3:6, :g - 1] = np.diff(b.full.T, axis=1)
-        table[6:, :g] = b.full_d.T
+        table[3, :g], table[4, :g] = b.r2_after, b.ca_after
+        table[5:8, :g - 1] = np.diff(b.full.T, axis=1)
+        table[8:, :g] = b.full_d.T
         self.table = np.ascontiguousarray(table, dtype=DTYPE)
         self.no_pulse = g
-        self.inv_step = 1.0 / b.r2_step
-        self.last_index = float(b.full.shape[0] - 1)
-        # partial bursts (S, G + 1, 2): x3 and its d-derivative inside the window
-        self.partial = np.concatenate([np.stack([b.partial, b.partial_d], axis=2), np.zeros((b.s_grid.size, 1, 2))],
+        self.inv_step = DTYPE(1.0 / b.r2_step)
+        self.last_index = DTYPE(b.full.shape[0] - 1)
+        # partial bursts (S, G + 2, 2): x3 and its d-derivative inside the window
+        self.partial = np.concatenate([np.stack([b.partial, b.partial_d], axis=2), np.zeros((b.s_grid.size, 2, 2))],
                                       axis=1)
-        self.through_window = _transition(b.window_ms, self.params.tau3, self.params.tau2, self.k).T.astype(DTYPE)
-        self.own_charge = np.array([b.r2_after, b.ca_after], dtype=DTYPE)[:, None]      # (Nanduri: not scaled by its gain)
-        self._transitions: dict[float, np.ndarray] = {}
+        self.through_window = _transition(b.window_ms, self.params.tau3, self.params.tau2, self.k)
+        self._intervals: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self.y_ref = 1.0
         self.y_ref = self._reference()
 
-    def transition(self, dt: float) -> np.ndarray:
-        """(5, 5) free evolution over ``dt`` ms for column states (cached: pulses on a regular
-        clock meet the same few intervals)."""
+    def interval(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """For a pulse ``dt`` ms after the reference time (column states, float32): (7, 5) the
+        free evolution to the pulse and through its window (5 rows; the burst is added apart),
+        then r2 and ca at the pulse (2 rows); (3, 5) x1, x2, x3 at the pulse. Cached: the pulse
+        clock is regular, so every pulse after the first meets the same interval."""
         key = round(dt, 9)
-        m = self._transitions.get(key)
-        if m is None:
-            if len(self._transitions) > 64:
-                self._transitions.clear()
-            m = self._transitions[key] = _transition(dt, self.params.tau3, self.params.tau2, self.k).T.astype(DTYPE)
-        return m
+        found = self._intervals.get(key)
+        if found is None:
+            if len(self._intervals) > 64:
+                self._intervals.clear()
+            m = _transition(dt, self.params.tau3, self.params.tau2, self.k).T
+            found = self._intervals[key] = (np.ascontiguousarray(np.vstack([self.through_window.T @ m, m[3:]]), DTYPE),
+                                            np.ascontiguousarray(m[:3], dtype=DTYPE))
+        return found
 
     def gain(self, peak: np.ndarray) -> np.ndarray:
         """Nanduri's r3 scale for the largest r3 so far (0 where nothing fired)."""
@@ -182,17 +193,27 @@ class RecursiveTemporalState:
 
     def reset(self) -> None:
         n = self.count
-        self.state = np.zeros((5, n), DTYPE)        # rows x1, x2, x3, r2, ca at t_ref, every burst begun so far included
+        # rows x1, x2, x3, r2, ca at t_ref, every burst begun so far included; the state before
+        # the latest pulse (the other buffer, ``_before_dt`` ms before it) is read only by a frame
+        # inside that pulse's window
+        self._buffers = (np.zeros((7, n), DTYPE), np.zeros((7, n), DTYPE))   # state rows, then r2, ca at the next pulse
+        self._current = 0
+        self.state = self._buffers[0][:5]
+        self._before = self._buffers[1][:5]
+        self._before_dt = 0.0
         self.top = np.zeros(n)               # Nanduri: the largest r3 so far
-        self.at_pulse = np.zeros((5, n), DTYPE)     # the state at the latest pulse, before its burst
-        self.pulse_index = np.zeros(n, np.intp)
-        self.pulse_weight = np.zeros(n)
-        self.pulse_d = np.zeros(n)
-        self.pulse_scale = np.zeros(n)       # 0: no pulse then; else its burst's scale
+        self.pulse_index = np.full(n, self.model.no_pulse, np.intp)   # the latest pulse's r2 grid index (G: none)
+        self.pulse_weight = np.zeros(n, DTYPE)
+        self.pulse_d = np.zeros(n, DTYPE)
+        self.pulse_scale: np.ndarray | None = None      # Nanduri: its burst's scale
+        self._pulsed = False                 # the latest pulse reached a phosphene
         self.amplitude = np.zeros(n, np.float32)
         self.request = np.zeros(n, np.float32)
-        self._on = np.zeros(n, DTYPE)
         self._on_mask = np.zeros(n, bool)
+        self._off_mask = np.ones(n, bool)
+        self._index = np.zeros(n, DTYPE)
+        self._whole = np.zeros(n, DTYPE)
+        self._term = np.zeros((3, n), DTYPE)
         self.t_ref = 0.0                     # ms
         self.t_pulse = -math.inf             # onset of the latest pulse [ms]
         self.next_pulse = 0.0
@@ -202,43 +223,53 @@ class RecursiveTemporalState:
         """Continue ``other``'s state (same number of phosphenes, same model)."""
         if other.count != self.count or other.model is not self.model:
             raise ValueError("cannot continue a temporal state of another model or number of phosphenes")
-        for name in ("state", "top", "at_pulse", "pulse_index", "pulse_weight", "pulse_d", "pulse_scale",
-                     "amplitude", "request", "_on", "_on_mask"):
+        for name in ("top", "pulse_index", "pulse_weight", "pulse_d", "amplitude", "request",
+                     "_on_mask", "_off_mask"):
             np.copyto(getattr(self, name), getattr(other, name))
+        np.copyto(self._buffers[0], other._buffers[other._current])
+        np.copyto(self._buffers[1], other._buffers[1 - other._current])
+        self._current, self.state, self._before = 0, self._buffers[0][:5], self._buffers[1][:5]
+        self.pulse_scale = None if other.pulse_scale is None else other.pulse_scale.copy()
+        self._before_dt, self._pulsed = other._before_dt, other._pulsed
         self.t_ref, self.t_pulse, self.next_pulse, self.t_last = other.t_ref, other.t_pulse, other.next_pulse, other.t_last
 
     # -- the update -------------------------------------------------------------------------------
     def _pulse(self, t_p: float) -> None:
-        """Deliver the stimulation clock's pulse at ``t_p`` [ms] with the current request."""
+        """Deliver the stimulation clock's pulse at ``t_p`` [ms] with the current request
+        (the masks set by :meth:`advance`). In place on preallocated float32 rows: about fifteen
+        NumPy operations for all phosphenes."""
         m = self.model
-        p = m.params
-        s = m.transition(t_p - self.t_ref) @ self.state if t_p > self.t_ref else self.state
-        r2 = s[3]
-        d = s[4] - r2
-        f = np.minimum(r2 * DTYPE(m.inv_step), DTYPE(m.last_index))
-        i0 = f.astype(np.intp)
-        w = f - i0
-        on = self._on
+        dt = t_p - self.t_ref if t_p > self.t_ref else 0.0
+        evolve = m.interval(dt)[0]
+        # one product: the state through the window (the burst added below), and r2, ca at the pulse;
+        # the state before the pulse stays in the other buffer, for a frame inside the window
+        out = self._buffers[1 - self._current]
+        np.matmul(evolve, self.state, out=out)
+        r2, ca = out[5], out[6]
+        d = np.subtract(ca, r2, out=self.pulse_d)                      # ca − r2 at the pulse
+        f = np.multiply(r2, m.inv_step, out=self._index)
+        np.minimum(f, m.last_index, out=f)
+        whole = np.floor(f, out=self._whole)
+        w = np.subtract(f, whole, out=self.pulse_weight)               # interpolation weight
+        i0 = self.pulse_index
+        np.copyto(i0, whole, casting="unsafe")
+        np.putmask(i0, self._off_mask, m.no_pulse)                     # column G: nothing added
+        rows = m.table.take(i0, axis=1)                                 # (11, N)
+        burst = rows[:3]
+        burst += np.multiply(w, rows[5:8], out=self._term)
+        burst += np.multiply(d, rows[8:], out=self._term)              # x1, x2, x3 the pulse adds
         if m.nanduri:
             t = m.bursts
             grid = np.arange(t.peak.size) * t.r2_step
             peak = np.maximum(np.interp(r2, grid, t.peak, right=0.0) + d * np.interp(r2, grid, t.peak_d, right=0.0), 0.0)
             self.top = np.where(self._on_mask, np.maximum(self.top, peak), self.top)
-            scale = on * m.gain(self.top)
-            rows = m.table.take(i0, axis=1)           # take: ~10x faster than fancy indexing here
-        else:
-            scale = on
-            # phosphenes without a pulse read column G (0): no scaling of the burst needed
-            rows = m.table.take(np.where(self._on_mask, i0, m.no_pulse), axis=1)
-        burst = rows[:3]
-        burst += w * rows[3:6]
-        burst += d * rows[6:]                         # x1, x2, x3 the pulse adds
-        self.at_pulse, self.pulse_index, self.pulse_weight, self.pulse_d, self.pulse_scale = s, i0, w, d, scale
-        new = m.through_window @ s
-        new[:3] += scale * burst if m.nanduri else burst
-        new[3:] += on * m.own_charge                  # the pulse's own charge (r2, ca)
-        self.state = new
-        np.copyto(self.amplitude, self.request, where=self._on_mask)
+            self.pulse_scale = self._on_mask * m.gain(self.top)
+            burst *= self.pulse_scale.astype(DTYPE)
+        new = out[:5]
+        new += rows[:5]                                                 # the burst and its own charge (r2, ca)
+        self._before, self.state, self._before_dt = self.state, new, dt
+        self._current = 1 - self._current
+        np.putmask(self.amplitude, self._on_mask, self.request)
         self.t_pulse, self.t_ref = t_p, t_p + m.window
 
     def _response(self, t: float, scale: float = 1.0) -> np.ndarray:
@@ -247,17 +278,21 @@ class RecursiveTemporalState:
         tau3 = m.params.tau3
         s = t - self.t_pulse
         if s >= m.window:
-            return (_output_row(t - self.t_ref, tau3) * scale).astype(DTYPE) @ self.state[:3]
-        y = (_output_row(s, tau3) * scale).astype(DTYPE) @ self.at_pulse[:3]
-        if not self.pulse_scale.any():
+            return _output_row(t - self.t_ref, tau3, scale) @ self.state[:3]
+        # inside the latest pulse's window: the state at the pulse decaying, plus the partial burst
+        to_x = m.interval(self._before_dt)[1]
+        y = (_output_row(s, tau3, scale) @ to_x) @ self._before
+        if not self._pulsed:
             return y
         grid = m.bursts.s_grid
         j = min(int(s / grid[-1] * (grid.size - 1)), grid.size - 2)
         ws = (s - grid[j]) / (grid[j + 1] - grid[j])
         i0, w = self.pulse_index, self.pulse_weight[:, None]
-        rows = m.partial[j] * (1 - ws) + m.partial[j + 1] * ws           # (G + 1, 2) at s
+        rows = m.partial[j] * (1 - ws) + m.partial[j + 1] * ws           # (G + 2, 2) at s
         at = rows.take(i0, axis=0) * (1 - w) + rows.take(i0 + 1, axis=0) * w
-        part = self.pulse_scale * (at[:, 0] + self.pulse_d * at[:, 1]) * scale
+        part = (at[:, 0] + self.pulse_d * at[:, 1]) * scale
+        if self.pulse_scale is not None:
+            part *= self.pulse_scale
         return np.maximum(y + part, 0.0).astype(DTYPE)
 
     def advance(self, t_ms: float, amplitude: np.ndarray) -> np.ndarray:
@@ -281,9 +316,10 @@ class RecursiveTemporalState:
             self.next_pulse += (due - MAX_PULSES_PER_STEP) * period
             self.t_ref = self.next_pulse
             due = MAX_PULSES_PER_STEP
-        if due:
-            self._on_mask = self.request > 0          # (once per request, for all its pulses)
-            self._on = self._on_mask.astype(DTYPE)
+        if due:                                       # (once per request, for all its pulses)
+            np.greater(self.request, 0, out=self._on_mask)
+            np.logical_not(self._on_mask, out=self._off_mask)
+            self._pulsed = bool(self._on_mask.any())
         for _ in range(due):
             self._pulse(self.next_pulse)
             self.next_pulse += period

@@ -129,3 +129,42 @@ def test_a_client_stepping_its_head_sees_the_server_follow():
     assert skipped == 0 and len(results) == 3
     assert all(r.onset_s is not None and r.half_s is not None and r.halfway_s is not None
                and r.onset_s <= r.half_s for r in results)
+
+
+def test_bench_rows_say_what_each_step_waited_for():
+    """`bench e2e`'s per-step row: when the display's levels got half-way to the new view and from
+    which camera frame, when the first camera frame looking the new way was taken (and its interval
+    from the one before: a late or dropped frame), when scene perception and the display had it."""
+    from raspv_bench.e2e import ProbeLog
+    from raspv_bench.e2e_steps import format_rows, slowest_summary, step_rows
+    from raspv_bench.motion_latency import StepResult
+
+    old, new = np.zeros(10, np.uint8), np.full(10, 8, np.uint8)
+    log = ProbeLog()
+    t0 = 10.0                                          # the step's head message
+    log.heads += [(t0 - 0.01, 0.0), (t0 + 0.001, 40.0)]
+    # camera frames at 20 Hz looking at 0°; the one at t0 + 0.04 is late (dropped at t0 + 0.0),
+    # looks the new way, and the scene has it 30 ms later
+    log.poses += [(t0 - 0.1, 0.0), (t0 - 0.05, 0.0), (t0 + 0.04, 40.0), (t0 + 0.09, 40.0)]
+    log.scenes += [(t0 + 0.04, t0 + 0.07)]
+    # display ticks: old levels, then the turn re-projected from the frame at t0 − 0.05 (a quarter
+    # of the way), then the new camera frame's levels (all the way) at t0 + 0.075
+    for k in range(-10, 60):
+        t = t0 + 0.02 * k / 2
+        if t < t0 + 0.005:
+            log.frames.append((t, t0 - 0.05, old))
+        elif t < t0 + 0.075:
+            log.frames.append((t, t0 - 0.05, np.where(np.arange(10) < 3, 8, 0).astype(np.uint8)))
+        else:
+            log.frames.append((t, t0 + 0.04, new))
+    result = StepResult(t0, 8.0, onset_s=0.012, halfway_s=0.15, onset_stamp=t0 + 0.005, halfway_stamp=t0 + 0.08)
+    rows = step_rows(log, [result], [t0, t0 + 0.59], [40.0, 0.0], 40.0, model_halfway=[60.0], system_onset=[9.0])
+    r = rows[0]
+    assert r["k"] == 0 and r["seen"] is False and r["halfway"] == pytest.approx(150.0) and r["less"] == pytest.approx(90.0)
+    assert r["lv_first"] == pytest.approx(0.3) and r["lv_half"] == pytest.approx(80.0)   # the first tick with new levels
+    assert r["lv_src"] == pytest.approx(40.0) and r["img_src"] == pytest.approx(40.0)
+    assert r["cam"] == pytest.approx(40.0) and r["cam_gap"] == pytest.approx(90.0)       # one 20 Hz frame missing
+    assert r["scene"] == pytest.approx(70.0) and r["shown"] == pytest.approx(80.0) and r["lv_back"] is None
+    lines = format_rows(rows)
+    assert len(lines) == 2 and "camgap" in lines[0] and "90.0" in lines[1]
+    assert "step 0 90 ms (levels from a camera frame taken after the step" in slowest_summary(rows)
