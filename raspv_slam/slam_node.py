@@ -160,14 +160,15 @@ class SlamNode(RaspvNode):
         if self.intrinsics is None:
             self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
             return False
-        config = SlamConfig(threads=self.params["threads"])
+        run_settings = {"threads": self.params["threads"], "new_map_after": self.params["new_map_after"]}
         try:
-            if self.map_path is not None:
-                self.system = SlamSystem.load(self.map_path, self.intrinsics, config=None,
-                                              localisation_only=self.params["mode"] == "localisation")
+            if self.map_path is not None:               # the map's settings, this node's run settings
+                localising = self.params["mode"] == "localisation"
+                self.system = SlamSystem.load(self.map_path, self.intrinsics, localisation_only=localising,
+                                              run_settings=run_settings)
                 self.anchored = self.publishing = True          # a saved map has its frame already
             else:
-                self.system = SlamSystem(self.intrinsics, config)
+                self.system = SlamSystem(self.intrinsics, SlamConfig(**run_settings))
         except (OSError, ValueError) as exc:          # SlamMapError is a ValueError: one line naming the map
             self.get_logger().fatal(f"cannot use map {self.map_path}: {exc}")
             self.exit_code = 2

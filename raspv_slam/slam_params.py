@@ -12,6 +12,10 @@ PARAMS = [
     Param("save_on_exit", True, "mapping: save the map when the node stops (Ctrl-C, SIGTERM)", dynamic=False),
     Param("autosave_period", 60.0, "mapping: save the map this often while running, so a killed node loses at "
           "most this much (0: only at exit and on /slam/save_map)", minimum=0.0, maximum=3600.0, unit="s"),
+    Param("new_map_after", 1.0, "mapping: lost this long (relocalisation failing) in a place the map does not know, "
+          "start a new map in a frame of its own (map_id in /slam/state); it is merged into the older map when one of "
+          "its places is recognised (0: wait for a mapped place instead)", minimum=0.0, maximum=600.0, unit="s",
+          dynamic=False),
     Param("max_rate", 10.0, "process at most this many frames per second, by their stamps (0: every frame the "
           "worker can take). As the odometry node: on 2 cores the graph's other nodes keep their share (one 640x480 "
           "frame costs ~30-60 ms of a core); a slow frame drops the frames that came meanwhile, never queues them",

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import time
 from collections import OrderedDict, deque
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -348,11 +349,16 @@ class SlamSystem:
 
     @classmethod
     def load(cls, path: str | Path, intrinsics: CameraIntrinsics, config: SlamConfig | None = None,
-             localisation_only: bool = True) -> "SlamSystem":
-        """A system on a saved map (a folder, or a name in the maps directory)."""
+             localisation_only: bool = True, run_settings: dict | None = None) -> "SlamSystem":
+        """A system on a saved map (a folder, or a name in the maps directory), run with ``config``
+        (default: the settings the map was built with) with ``run_settings`` replacing some of
+        them: the runner's choices, not the map's (e.g. ``{"new_map_after": 0.0, "threads": 2}``)."""
         from raspv_slam.map_store import load_map
 
-        return cls(intrinsics, config, load_map(path, config), localisation_only)
+        slam_map = load_map(path, config)
+        if run_settings:
+            config = replace(slam_map.config, **run_settings)
+        return cls(intrinsics, config, slam_map, localisation_only)
 
     def close(self) -> None:
         """Stop the background thread (pending keyframes are processed first)."""

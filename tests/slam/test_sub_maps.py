@@ -165,3 +165,37 @@ def test_localisation_in_a_map_with_a_sub_map_says_which_map_it_is_in(run):
 def test_new_map_after_is_checked():
     with pytest.raises(ValueError, match="new_map_after"):
         SlamConfig(new_map_after=-1.0)
+
+
+def test_a_continued_map_starts_new_maps_after_the_runners_new_map_after(tmp_path):
+    """A saved map continued in mapping mode keeps its own settings (``lost_after`` 3 here, not
+    the default 10) but ``new_map_after`` is the runner's (the slam node's parameter): with 0 the
+    system waits for a mapped place, with the map's own 0.5 s it starts a new map."""
+    with SlamSystem(K, CONFIG) as slam:
+        for i, T in enumerate(mapped()):
+            slam.process(i * DT, *render(T))
+        slam.save(tmp_path / "room")
+
+    def lost_in_an_unmapped_place(system: SlamSystem) -> list:
+        t = 10.0
+        found = system.process(t, *render(mapped()[5]))
+        assert found.state == TrackingState.RELOCALISED, found.state
+        results = []
+        for _ in range(COVERED):
+            t += DT
+            results.append(system.process(t, *BLANK))
+        for T in kidnapped()[:4]:
+            t += DT
+            results.append(system.process(t, *render(T)))
+        system.close()
+        return results
+
+    waiting = SlamSystem.load(tmp_path / "room", K, localisation_only=False, run_settings={"new_map_after": 0.0})
+    assert waiting.config.new_map_after == 0.0 and waiting.config.lost_after == CONFIG.lost_after
+    assert not waiting.config.background              # the map's settings otherwise
+    results = lost_in_an_unmapped_place(waiting)
+    assert results[-1].state == TrackingState.LOST and waiting.counts["new_maps"] == 0, [r.state.value for r in results]
+    assert set(waiting.map.segments()) == {0}
+    own = SlamSystem.load(tmp_path / "room", K, localisation_only=False)       # the map's 0.5 s
+    results = lost_in_an_unmapped_place(own)
+    assert own.counts["new_maps"] == 1 and TrackingState.NEW_MAP in [r.state for r in results]
