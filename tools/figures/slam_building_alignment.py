@@ -2,8 +2,9 @@
 """docs/figures/slam_building_alignment.png: a SLAM map of a simulator walk placed on the
 world's occupancy map by ``raspv slam align`` (docs/slam.md, "The building map").
 
-Renders the walk, builds the map, writes the world's occupancy map and aligns (each step skipped
-when its output exists; the walk takes ~12 min to render and ~13 min to map on 2 loaded cores):
+Renders the walk, builds the map, writes the world's occupancy map and aligns with no guess (each
+step skipped when its output exists; the walk took 16 min to render and 2.3 min to map at
+`nice -n 19` on 2 loaded cores):
 
     .venv/bin/python tools/figures/slam_building_alignment.py [--work DIR]
 """
@@ -34,9 +35,8 @@ def main(argv=None) -> int:
         raspv("slam", "build", str(walk), "-o", str(slam_map), "--trajectory", str(walk / "slam.txt"))
     if not building.is_file():
         raspv("sim", "map", "office", "-o", str(args.work))
-    # with no guess the corridor-only map is refused as ambiguous (docs/slam.md): the measured guess
-    raspv("slam", "align", str(slam_map), "--building", str(building), "--guess", "1", "6", "0", "--radius", "1",
-          "-o", str(FIGURE))
+    # the corrected route's map is accepted with no guess (docs/slam.md: 0.9 cm, 0.00 deg from the truth)
+    raspv("slam", "align", str(slam_map), "--building", str(building), "-o", str(FIGURE))
     return 0
 
 
