@@ -56,6 +56,12 @@ CAMERA_PRESETS: dict[str, tuple[float, float, float, float]] = {
     "tum-fr3": (535.4, 539.2, 320.1, 247.6),
     "xtion-60deg": (554.26, 554.26, 319.5, 239.5),
 }
+# TUM's published lens distortion of the freiburg colour cameras (plumb bob k1 k2 p1 p2 k3): their
+# images are raw (fr3's were rectified), the depth registered to the distorted colour image.
+CAMERA_DISTORTION: dict[str, tuple[float, ...]] = {
+    "tum-fr1": (0.2624, -0.9531, -0.0054, 0.0026, 1.1633),
+    "tum-fr2": (0.2312, -0.7849, -0.0033, -0.0001, 0.9172),
+}
 
 
 class FramesError(ValueError):
@@ -398,11 +404,14 @@ class _Serialiser:
                          step=arr.strides[0], data=arr.reshape(-1).view(np.uint8))
         return bytes(self.store.serialize_cdr(msg, "sensor_msgs/msg/Image"))
 
-    def camera_info(self, cam: CameraIntrinsics, header) -> bytes:
+    def camera_info(self, cam: CameraIntrinsics, header, distortion: tuple[float, ...] = ()) -> bytes:
         K = cam.K.reshape(-1)
         P = np.array([cam.fx, 0, cam.cx, 0, 0, cam.fy, cam.cy, 0, 0, 0, 1, 0], dtype=np.float64)
-        msg = self.CameraInfo(header=header, height=cam.height, width=cam.width, distortion_model="plumb_bob",
-                              d=np.zeros(5), k=K.astype(np.float64), r=np.eye(3).reshape(-1), p=P,
+        d = np.zeros(max(5, len(distortion)))
+        d[:len(distortion)] = distortion
+        msg = self.CameraInfo(header=header, height=cam.height, width=cam.width,
+                              distortion_model="rational_polynomial" if len(d) == 8 else "plumb_bob",
+                              d=d, k=K.astype(np.float64), r=np.eye(3).reshape(-1), p=P,
                               binning_x=0, binning_y=0,
                               roi=self.Roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False))
         return bytes(self.store.serialize_cdr(msg, "sensor_msgs/msg/CameraInfo"))
@@ -422,9 +431,10 @@ class RgbdBagWriter:
     optionally the camera pose), written from arrays. Used by from-frames, tests and benchmarks."""
 
     def __init__(self, output: str | Path, storage: str = "mcap", with_pose: bool = False,
-                 frame_id: str = FRAME_ID) -> None:
+                 frame_id: str = FRAME_ID, distortion: tuple[float, ...] = ()) -> None:
         self.ser = _Serialiser()
         self.frame_id = frame_id
+        self.distortion = tuple(distortion)        # lens distortion of the raw colour images (OpenCV k1 k2 p1 p2 [k3])
         self.writer = BagWriter(output, storage, flush_interval_s=None)
         self.writer.add_topic(T.COLOR, "sensor_msgs/msg/Image", [SENSOR])
         self.writer.add_topic(T.DEPTH, "sensor_msgs/msg/Image", [SENSOR])
@@ -443,7 +453,7 @@ class RgbdBagWriter:
             self.writer.write(T.COLOR, stamp_ns, self.ser.image(color, "rgb8", header))
         if depth is not None:
             self.writer.write(T.DEPTH, stamp_ns, self.ser.image(np.asarray(depth, np.float32), "32FC1", header))
-        self.writer.write(T.CAMERA_INFO, stamp_ns, self.ser.camera_info(camera, header))
+        self.writer.write(T.CAMERA_INFO, stamp_ns, self.ser.camera_info(camera, header, self.distortion))
         if pose is not None:
             self.writer.write(T.CAMERA_POSE, stamp_ns, self.ser.pose(pose, self.ser.header(stamp_ns, MAP)))
         self.frames += 1
@@ -460,10 +470,11 @@ class RgbdBagWriter:
 
 def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, output: Path,
                      storage: str = "mcap", progress: Callable[[int, int], None] | None = None,
-                     frame_id: str = FRAME_ID) -> FromFramesReport:
+                     frame_id: str = FRAME_ID, distortion: tuple[float, ...] = ()) -> FromFramesReport:
     """Write ``frames`` into the new bag ``output``. ``intrinsics``: fx, fy, cx, cy [px] (and
-    optionally the width/height they were measured at). Raises :class:`FramesError` when no
-    intrinsics are given or no pair is usable."""
+    optionally the width/height they were measured at); ``distortion``: the colour images' lens
+    distortion (OpenCV k1 k2 p1 p2 [k3]) for the camera info, none by default. Raises
+    :class:`FramesError` when no intrinsics are given or no pair is usable."""
     if not frames.pairs:
         raise FramesError("no frames to write")
     if intrinsics is None:
@@ -475,7 +486,8 @@ def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, outp
     size: tuple[int, int] | None = None
     cam: CameraIntrinsics | None = None
     resized_note = False
-    out = RgbdBagWriter(output, storage, with_pose=any(p.pose is not None for p in frames.pairs), frame_id=frame_id)
+    out = RgbdBagWriter(output, storage, with_pose=any(p.pose is not None for p in frames.pairs), frame_id=frame_id,
+                        distortion=distortion)
     try:
         for n, pair in enumerate(frames.pairs):
             if progress is not None:

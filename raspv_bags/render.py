@@ -32,7 +32,8 @@ from raspv_bags.from_frames import FramesError, intrinsics_for
 from raspv_bags.reader import BagError, BagMessage, BagReader
 from raspv_bags.video_sink import VideoError, VideoSink, require_codec
 from raspv_common import topics as T
-from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, pose_to_matrix, rgb_from_image
+from raspv_common.conversions import (camera_info_distortion, camera_info_to_intrinsics, depth_from_image,
+                                      pose_to_matrix, rgb_from_image)
 from raspv_common.frames import is_map_frame
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_spv.config import config_from_node_params
@@ -184,6 +185,7 @@ class BagFrameSource:
         if not (self.want_color or self.want_depth):
             raise RenderError(f"nothing to render: the bag has neither {settings.color_topic} nor {settings.depth_topic}")
         self.intrinsics: CameraIntrinsics | None = None
+        self.distortion: tuple[float, ...] = ()     # of the first usable camera info (OpenCV coefficients)
         self.fixed_intrinsics = settings.intrinsics
         if self.fixed_intrinsics is None and settings.info_topic not in have:
             raise RenderError(f"the bag has no camera info ({settings.info_topic}); give the intrinsics "
@@ -270,9 +272,13 @@ class BagFrameSource:
                 continue
             try:
                 self.intrinsics = camera_info_to_intrinsics(info)
-                return
             except ValueError:
                 continue
+            try:
+                self.distortion = camera_info_distortion(info)
+            except ValueError as exc:
+                self._note_once("distortion", f"camera info: {exc}; its distortion is ignored")
+            return
         if self.intrinsics is None:
             raise RenderError(f"no usable camera info on {self.s.info_topic}; give the intrinsics "
                               f"(--fx --fy --cx --cy or --intrinsics FILE)")

@@ -108,6 +108,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                           "or a ROS camera-calibration file")
     for k in ("fx", "fy", "cx", "cy"):
         cam.add_argument(f"--{k}", type=float, default=None, help=f"{k} [px]")
+    ff.add_argument("--distortion", type=float, nargs="+", metavar="K",
+                    help="lens distortion of the colour images, plumb bob k1 k2 p1 p2 [k3] (OpenCV's), for the camera "
+                         "info (default: the --camera preset's, tum-fr1/tum-fr2 TUM's published one; else none)")
     ff.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
 
 
@@ -237,8 +240,8 @@ def _repair(args: argparse.Namespace) -> int:
 # -- from-frames --------------------------------------------------------------------------------
 
 def _from_frames(args: argparse.Namespace) -> int:
-    from raspv_bags.from_frames import (CAMERA_PRESETS, FramesError, discover_frames, load_intrinsics_file,
-                                              write_frames_bag)
+    from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, FramesError, discover_frames,
+                                        load_intrinsics_file, write_frames_bag)
     from raspv_bags.writer import BagWriteError
 
     given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
@@ -271,7 +274,11 @@ def _from_frames(args: argparse.Namespace) -> int:
             if tty:
                 print(f"\r{_bar(done, total)}", end="", file=sys.stderr, flush=True)
 
-        report = write_frames_bag(frames, intr, Path(args.output), args.storage, progress)
+        distortion = tuple(args.distortion) if args.distortion else CAMERA_DISTORTION.get(args.camera or "", ())
+        if len(distortion) not in (0, 4, 5, 8):
+            raise FramesError(f"--distortion takes 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), "
+                              f"got {len(distortion)}")
+        report = write_frames_bag(frames, intr, Path(args.output), args.storage, progress, distortion=distortion)
         if tty:
             print(file=sys.stderr)
     except (FramesError, BagWriteError) as exc:
@@ -281,6 +288,7 @@ def _from_frames(args: argparse.Namespace) -> int:
     cam = report.intrinsics
     print(f"{report.output}: {report.frames} frames {report.size[0]}x{report.size[1]}"
           f" (fx {cam.fx:.1f}, fy {cam.fy:.1f}, cx {cam.cx:.1f}, cy {cam.cy:.1f})"
+          + (f", distortion {' '.join(f'{k:g}' for k in distortion)}" if distortion else "")
           + (f", {report.with_pose} poses" if report.with_pose else "")
           + (f", {report.skipped} skipped" if report.skipped else ""))
     return 0

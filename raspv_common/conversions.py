@@ -128,14 +128,36 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> CameraIntrinsics:
     return CameraIntrinsics.from_matrix(k.reshape(3, 3), msg.width, msg.height)
 
 
-def intrinsics_to_camera_info(intr: CameraIntrinsics, header: Header | None = None) -> CameraInfo:
-    """:class:`CameraIntrinsics` → ``CameraInfo`` (plumb_bob model, zero distortion)."""
+# Distortion models whose coefficients are OpenCV's (k1 k2 p1 p2 [k3 [k4 k5 k6]]), as ROS names them.
+OPENCV_DISTORTION_MODELS = ("plumb_bob", "rational_polynomial")
+
+
+def camera_info_distortion(msg: CameraInfo) -> tuple[float, ...]:
+    """The lens distortion of a ``CameraInfo`` as OpenCV coefficients (k1 k2 p1 p2 [k3 …]); ``()``
+    for a rectified (all-zero or empty) one. Raises ``ValueError`` for a model OpenCV's pinhole
+    functions do not take (e.g. ``equidistant``) or a coefficient count they do not know."""
+    d = tuple(float(v) for v in msg.d)
+    if not any(d):
+        return ()
+    if msg.distortion_model not in OPENCV_DISTORTION_MODELS:
+        raise ValueError(f"distortion model {msg.distortion_model!r} is not supported "
+                         f"(only {', '.join(OPENCV_DISTORTION_MODELS)}): rectify the images first")
+    if len(d) not in (4, 5, 8):
+        raise ValueError(f"{msg.distortion_model} needs 4, 5 or 8 coefficients, got {len(d)}")
+    return d
+
+
+def intrinsics_to_camera_info(intr: CameraIntrinsics, header: Header | None = None,
+                              distortion: tuple[float, ...] = ()) -> CameraInfo:
+    """:class:`CameraIntrinsics` → ``CameraInfo`` (plumb_bob model; ``distortion`` k1 k2 p1 p2
+    [k3] of the raw images, zero by default; 8 coefficients: rational_polynomial)."""
     msg = CameraInfo()
     if header is not None:
         msg.header = header
     msg.width, msg.height = int(intr.width), int(intr.height)
-    msg.distortion_model = "plumb_bob"
-    msg.d = [0.0] * 5
+    d = [float(v) for v in distortion] + [0.0] * (5 - len(distortion))
+    msg.distortion_model = "rational_polynomial" if len(d) == 8 else "plumb_bob"
+    msg.d = d
     msg.k = [intr.fx, 0.0, intr.cx, 0.0, intr.fy, intr.cy, 0.0, 0.0, 1.0]
     msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
     msg.p = [intr.fx, 0.0, intr.cx, 0.0, 0.0, intr.fy, intr.cy, 0.0, 0.0, 0.0, 1.0, 0.0]

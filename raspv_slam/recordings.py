@@ -12,18 +12,10 @@ from typing import Iterator
 
 import numpy as np
 
-from raspv_bags.from_frames import (CAMERA_PRESETS, FramesError, discover_frames, intrinsics_for,
-                                    load_intrinsics_file, read_depth)
+from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, FramesError, discover_frames,
+                                    intrinsics_for, load_intrinsics_file, read_depth)
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.rgbd_files import RGBDFormatError, read_color
-
-# TUM's published distortion of the freiburg colour cameras (plumb bob k1 k2 p1 p2 k3); the
-# depth is registered to the distorted colour image.
-CAMERA_DISTORTION: dict[str, tuple[float, ...]] = {
-    "tum-fr1": (0.2624, -0.9531, -0.0054, 0.0026, 1.1633),
-    "tum-fr2": (0.2312, -0.7849, -0.0033, -0.0001, 0.9172),
-}
-
 
 INTRINSICS_FILE = "intrinsics.yaml"      # a frames folder's own intrinsics (fx, fy, cx, cy [, width, height])
 
@@ -148,7 +140,9 @@ def _open_bag(path: Path, values: dict | None, camera: str | None, distortion) -
         finally:
             reader.close()
 
-    return Recording(path, "bag", K, tuple(distortion or CAMERA_DISTORTION.get(camera or "", ())), count,
+    if distortion is None:          # the preset's, else the bag's camera info's (from-frames writes a preset's)
+        distortion = CAMERA_DISTORTION.get(camera, ()) if camera else source.distortion
+    return Recording(path, "bag", K, tuple(distortion), count,
                      list(reader.notes) + source.notes, frames)
 
 

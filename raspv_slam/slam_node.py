@@ -47,7 +47,8 @@ from std_msgs.msg import Header, String
 from visualization_msgs.msg import MarkerArray
 
 from raspv_common import frames, topics
-from raspv_common.conversions import ImageEncodingError, depth_from_image, matrix_to_pose, rgb_from_image
+from raspv_common.conversions import (ImageEncodingError, camera_info_distortion, depth_from_image, matrix_to_pose,
+                                      rgb_from_image)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
@@ -79,6 +80,7 @@ class SlamNode(RaspvNode):
             self.save_path = (resolve_map_path(p["save_to"]) if p["save_to"] else self.map_path
                               or maps_dir() / _dt.datetime.now().strftime("slam-%Y%m%d-%H%M%S"))
         self.system = None                      # made at the first camera info (the core needs the intrinsics)
+        self.distortion: tuple[float, ...] = ()  # the camera info's lens distortion (OpenCV coefficients)
         self.pub_pose = self.create_publisher(PoseStamped, topics.CAMERA_POSE, SENSOR_QOS)
         self.pub_state = self.create_publisher(String, topics.SLAM_STATE, LATCHED_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, topics.SLAM_MARKERS, SENSOR_QOS)
@@ -127,6 +129,17 @@ class SlamNode(RaspvNode):
         while len(self._pending) > 6:
             self._pending.pop(min(self._pending))
 
+    def on_camera_info(self, msg: CameraInfo) -> None:
+        """Keep the intrinsics and the lens distortion: the core undistorts the keypoints (a raw
+        Kinect-class image unrectified is off by degrees at its edges, which PnP and the dense
+        registration take for rotation)."""
+        super().on_camera_info(msg)
+        try:
+            self.distortion = camera_info_distortion(msg)
+        except ValueError as exc:
+            self.distortion = ()
+            self.warn_throttled("distortion", f"camera info: {exc}; tracking as if the images were rectified")
+
     def on_scene(self, msg: SceneStructureMsg) -> None:
         if self.anchored or not msg.floor_found:
             return
@@ -160,7 +173,9 @@ class SlamNode(RaspvNode):
         if self.intrinsics is None:
             self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
             return False
-        run_settings = {"threads": self.params["threads"], "new_map_after": self.params["new_map_after"]}
+        # the camera's lens distortion is the live camera's: a loaded map's keypoints are stored undistorted
+        run_settings = {"threads": self.params["threads"], "new_map_after": self.params["new_map_after"],
+                        "distortion": self.distortion}
         try:
             if self.map_path is not None:               # the map's settings, this node's run settings
                 localising = self.params["mode"] == "localisation"

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from raspv_bringup.cli import main as raspv
-from raspv_bags.from_frames import (FramesError, associate, discover_frames, intrinsics_for,
+from raspv_bags.from_frames import (CAMERA_DISTORTION, FramesError, associate, discover_frames, intrinsics_for,
                                           load_intrinsics_file, stamp_from_name, write_frames_bag)
 from raspv_bags.reader import BagReader
 from raspv_common import topics as T
-from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, rgb_from_image
+from raspv_common.conversions import camera_info_distortion, camera_info_to_intrinsics, depth_from_image, rgb_from_image
 from raspv_common.rgbd_files import read_color, read_depth_scaled
 
 PRIMESENSE = {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}
@@ -61,6 +61,26 @@ def test_tum_sequence_associates_frames_and_interpolates_poses(tum_sequence, tmp
     np.testing.assert_array_equal(color, read_color(frames.pairs[0].color))
     assert (info.fx, info.cy) == (517.3, 255.3)
     assert pose.header.frame_id == "map" and pose.pose.position.z == pytest.approx(1.5)
+
+
+def test_a_tum_preset_writes_its_lens_distortion_and_slam_reads_it_back(tum_sequence, tmp_path):
+    """fr1's images are raw (k1 0.26): the bag's camera info carries TUM's distortion, and the SLAM
+    recording of the bag undistorts with it without being told the camera again."""
+    from raspv_slam.recordings import open_recording
+
+    out = tmp_path / "bag"
+    assert raspv(["bag", "from-frames", str(tum_sequence), "-o", str(out), "--camera", "tum-fr1"]) == 0
+    with BagReader(out) as r:
+        info = r.decode(next(r.messages([T.CAMERA_INFO])))
+    assert camera_info_distortion(info) == pytest.approx(CAMERA_DISTORTION["tum-fr1"])
+    assert open_recording(out).distortion == pytest.approx(CAMERA_DISTORTION["tum-fr1"])
+    assert raspv(["bag", "from-frames", str(tum_sequence), "-o", str(tmp_path / "b2"), "--camera", "tum-fr1",
+                  "--distortion", "0.1", "0", "0", "0"]) == 0
+    assert open_recording(tmp_path / "b2").distortion == pytest.approx((0.1, 0, 0, 0, 0))
+    assert raspv(["bag", "from-frames", str(tum_sequence), "-o", str(tmp_path / "b3"), "--camera", "tum-fr3"]) == 0
+    assert open_recording(tmp_path / "b3").distortion == ()                       # fr3's images are rectified
+    assert raspv(["bag", "from-frames", str(tum_sequence), "-o", str(tmp_path / "b4"), "--camera", "tum-fr1",
+                  "--distortion", "0.1", "0"]) == 1
 
 
 def test_flat_folder_pairs_take_timestamps_from_names(data_dir, tmp_path):

@@ -3,10 +3,10 @@ import pytest
 from geometry_msgs.msg import Pose
 from sensor_msgs.msg import Image
 
-from raspv_common.conversions import (ImageEncodingError, array_to_image, camera_info_to_intrinsics,
-                                      depth_from_image, image_to_array, intrinsics_to_camera_info,
-                                      matrix_to_pose, pose_to_matrix, rgb_from_image, seconds_to_stamp,
-                                      stamp_to_seconds)
+from raspv_common.conversions import (ImageEncodingError, array_to_image, camera_info_distortion,
+                                      camera_info_to_intrinsics, depth_from_image, image_to_array,
+                                      intrinsics_to_camera_info, matrix_to_pose, pose_to_matrix, rgb_from_image,
+                                      seconds_to_stamp, stamp_to_seconds)
 from raspv_common.intrinsics import CameraIntrinsics
 
 
@@ -66,6 +66,23 @@ def test_camera_info_round_trip_and_invalid():
     assert camera_info_to_intrinsics(intrinsics_to_camera_info(intr)) == intr
     with pytest.raises(ValueError, match="no valid calibration"):
         camera_info_to_intrinsics(intrinsics_to_camera_info(intr).__class__())
+
+
+def test_camera_info_carries_the_lens_distortion():
+    intr = CameraIntrinsics(640, 480, 517.3, 516.5, 318.6, 255.3)
+    assert camera_info_distortion(intrinsics_to_camera_info(intr)) == ()          # rectified: zeros
+    tum = (0.2624, -0.9531, -0.0054, 0.0026, 1.1633)
+    msg = intrinsics_to_camera_info(intr, distortion=tum)
+    assert msg.distortion_model == "plumb_bob" and camera_info_distortion(msg) == pytest.approx(tum)
+    assert camera_info_distortion(intrinsics_to_camera_info(intr, distortion=tum[:4])) == pytest.approx(tum[:4] + (0,))
+    rational = intrinsics_to_camera_info(intr, distortion=tum + (0.1, 0.2, 0.3))
+    assert rational.distortion_model == "rational_polynomial" and len(camera_info_distortion(rational)) == 8
+    msg.distortion_model = "equidistant"
+    with pytest.raises(ValueError, match="'equidistant' is not supported"):
+        camera_info_distortion(msg)
+    msg.distortion_model, msg.d = "plumb_bob", [0.1, 0.2, 0.3]
+    with pytest.raises(ValueError, match="4, 5 or 8"):
+        camera_info_distortion(msg)
 
 
 def test_pose_matrix_round_trip():
