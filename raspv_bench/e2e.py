@@ -157,7 +157,8 @@ class ProbeLog:
     gazes: list[tuple[float, float]] = field(default_factory=list)           # (stamp: sent, mapped; gaze yaw deg)
     poses: list[tuple[float, float]] = field(default_factory=list)           # (stamp, camera heading deg)
     scenes: list[tuple[float, float]] = field(default_factory=list)          # (stamp, received)
-    frames: list[tuple[float, float, np.ndarray]] = field(default_factory=list)  # (stamp, source stamp, levels)
+    # (stamp, source stamp, levels, scene stamp: the depth frame whose scene result the levels used)
+    frames: list[tuple[float, float, np.ndarray, float]] = field(default_factory=list)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -201,7 +202,8 @@ def _subscribe(probe, log: ProbeLog) -> None:
     def frame(m):
         levels = np.frombuffer(bytes(m.levels), np.uint8)
         with log.lock:
-            log.frames.append((stamp_to_seconds(m.header.stamp), stamp_to_seconds(m.source_stamp), levels))
+            log.frames.append((stamp_to_seconds(m.header.stamp), stamp_to_seconds(m.source_stamp), levels,
+                               stamp_to_seconds(m.scene_stamp)))
 
     n = probe.node
     log.subscriptions = [n.create_subscription(QuaternionStamped, topics.HEAD_ORIENTATION, head, qos),
@@ -373,7 +375,7 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     temporal_on = any("spv.temporal:=true" == o for o in overrides)
     system = system_onsets(log, results, receipt, stamps)
     print(f"  onset counted by the system (first frame whose levels changed, at the client) [ms] {_stats(system)}")
-    b_halfway = None
+    b_halfway, rise = None, None
     if temporal_on:
         b_onset, b_half, b_halfway = temporal_build_up(log, results, ["bridge.port:=0", *overrides], graph_path)
         print(f"  the temporal model's own rise (same steps of levels, offline): onset [ms] {_stats(b_onset)}; "
@@ -382,6 +384,9 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
         if rise is not None:
             less_rise = [None if h is None else h - rise for h in halfway]
             print(f"  half-way to the new view less the model's 50 % rise (median {rise:.0f} ms) [ms] {_stats(less_rise)}")
+            seen, new = _by_direction_seen(results, less_rise, list(step_times), list(step_yaws))
+            print(f"    of them steps to a direction shown before in the run [ms] {_stats(seen)}; to a direction never "
+                  f"shown [ms] {_stats(new)}")
         # what the system adds: each step's half-way at the client less the model's own half-way
         # for the same step (old phosphenes fade slower than new ones rise: a step's half-way is
         # the model's own longer than its 50 % rise)
@@ -406,10 +411,14 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
     if not gaze:
         save_probe_log(log, workdir / "probe.npz")
         rows = step_rows(log, results, list(step_times), list(step_yaws), args.amplitude, b_halfway, system)
+        for row in rows:                    # the issue's figure: half-way less the model's median 50 % rise
+            row["less_rise"] = None if rise is None or row["halfway"] is None else row["halfway"] - rise
         print("  per step [ms from the step's first head message; lv*: the display's levels (/spv/frame): lv1st the "
-              "share of their change in the first changed tick, lvhalf the tick half-way, lvsrc its camera frame "
+              "share of their change in the first changed tick, lessrise: half-way less the model's median 50 % rise, lvhalf the tick half-way, lvsrc its camera frame "
               "(< 0: taken before the step); cam: the first camera frame looking the new way, camgap its interval "
-              "from the one before; scene, shown: it out of scene perception, on the display; imgsrc: the camera "
+              "from the one before; scene, shown: it out of scene perception, on the display; lvcam: the share of the "
+              "levels' change on that tick; own: its first tick with its own scene result (not one carried from an "
+              "earlier frame); lvscn: the depth frame whose scene result the half-way tick used; imgsrc: the camera "
               "frame of the client's half-way image]:")
         for line in format_rows(rows):
             print(f"    {line}")

@@ -39,8 +39,13 @@ def save_probe_log(log, path) -> None:
         arrays = {name: np.array(getattr(log, name), float).reshape(-1, 2) for name in ("heads", "poses", "scenes")}
     shapes = {f[2].shape for f in frames}
     levels = np.stack([f[2] for f in frames]) if len(shapes) == 1 and frames else np.zeros((0, 0), np.uint8)
-    np.savez_compressed(path, frame_stamps=np.array([[f[0], f[1]] for f in frames]).reshape(-1, 2),
+    np.savez_compressed(path, frame_stamps=np.array([[f[0], f[1], _scene_stamp(f)] for f in frames]).reshape(-1, 3),
                         levels=levels, **arrays)
+
+
+def _scene_stamp(frame) -> float:
+    """The depth frame whose scene result a logged display frame used [s] (0: none, or not logged)."""
+    return frame[3] if len(frame) > 3 else 0.0
 
 
 def step_rows(log, results, step_times, step_yaws, amplitude: float, model_halfway: list | None = None,
@@ -56,8 +61,11 @@ def step_rows(log, results, step_times, step_yaws, amplitude: float, model_halfw
     off again: the display went back), ``lv_first`` (share of the levels' change the first changed tick made),
     ``cam`` (the first camera frame looking the new way: its capture stamp), ``cam_gap`` (its
     interval from the camera frame before it), ``scene`` (scene perception of it out),
-    ``shown`` (the first display tick computed from it), ``img_src`` (the camera frame of the
-    client's half-way frame)."""
+    ``shown`` (the first display tick computed from it), ``lv_cam`` (share of the levels' change at
+    that tick), ``own``
+    (the first display tick of it with its own scene result, not one carried from an earlier frame),
+    ``lv_scene`` (the depth frame whose scene result the half-way tick's levels used), ``img_src``
+    (the camera frame of the client's half-way frame)."""
     with log.lock:
         heads, poses, scenes, frames = list(log.heads), list(log.poses), list(log.scenes), list(log.frames)
     by_stamp = {round(f[0], 6): f for f in frames}
@@ -80,10 +88,14 @@ def step_rows(log, results, step_times, step_yaws, amplitude: float, model_halfw
         pre = [f for f in frames if f[0] < t0]
         end = min([t for t in step_times if t > t0] + [t0 + 1.2])
         post = [f for f in frames if end - 0.25 < f[0] < end]
-        row.update(lv_half=None, lv_src=None, lv_first=None, lv_back=None)
+        row.update(lv_half=None, lv_src=None, lv_first=None, lv_back=None, lv_scene=None)
+        share = None                                    # share of the levels' change a tick made
         if pre and post and pre[-1][2].shape == post[-1][2].shape:
             base, final = pre[-1][2], post[-1][2]
             change = _d(base, final)
+            if change > 0:
+                def share(f, base=base, final=final, change=change):
+                    return 1.0 - _d(f[2], final) / change if f[2].shape == base.shape else None
             after = [f for f in frames if f[0] >= t0 and f[2].shape == base.shape]
             first = _first(after, lambda f: _d(f[2], base) > 0)
             if change > 0 and first is not None:
@@ -91,10 +103,11 @@ def step_rows(log, results, step_times, step_yaws, amplitude: float, model_halfw
             half = _first(after, lambda f: _d(f[2], final) <= HALF * change) if change > 0 else None
             if half is not None:
                 row["lv_half"], row["lv_src"] = _ms(half[0], t0), _ms(half[1], t0)
+                row["lv_scene"] = _ms(_scene_stamp(half), t0) if _scene_stamp(half) > 0 else None
                 off = [f for f in after if half[0] < f[0] < end and _d(f[2], final) > HALF * change]
                 row["lv_back"] = _ms(off[-1][0], t0) if off else None
         # the camera path: the first frame looking the new way
-        row.update(cam=None, cam_gap=None, scene=None, shown=None)
+        row.update(cam=None, cam_gap=None, scene=None, shown=None, lv_cam=None, own=None)
         head = _first(heads, lambda h: h[0] >= t0 - 0.005 and abs(h[1] - sent_yaw.get(t0, math.nan)) < 1.0)
         before = [p for p in poses if p[0] < (head[0] if head else t0)]
         if before:
@@ -109,6 +122,10 @@ def step_rows(log, results, step_times, step_yaws, amplitude: float, model_halfw
                 row["scene"] = _ms(sc[1], t0) if sc else None
                 shown = _first(frames, lambda f: f[1] >= capture[0] - 1e-6)
                 row["shown"] = _ms(shown[0], t0) if shown else None
+                if shown is not None and share is not None:
+                    row["lv_cam"] = share(shown)
+                own = _first(frames, lambda f: f[1] >= capture[0] - 1e-6 and abs(_scene_stamp(f) - f[1]) < 1e-6)
+                row["own"] = _ms(own[0], t0) if own else None
         img = by_stamp.get(round(r.halfway_stamp, 6)) if r.halfway_stamp is not None else None
         row["img_src"] = _ms(img[1], t0) if img else None
         rows.append(row)
@@ -165,9 +182,10 @@ def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph
 
 COLUMNS = (("k", "step", "{:>4d}"), ("seen", "seen", "{!s:>5}"), ("onset", "onset", "{:6.1f}"),
            ("system", "sys", "{:6.1f}"), ("halfway", "half", "{:6.1f}"), ("model", "model", "{:6.1f}"),
-           ("less", "less", "{:6.1f}"), ("lv_first", "lv1st", "{:5.2f}"), ("lv_half", "lvhalf", "{:6.1f}"),
+           ("less", "less", "{:6.1f}"), ("less_rise", "lessrise", "{:8.1f}"), ("lv_first", "lv1st", "{:5.2f}"), ("lv_half", "lvhalf", "{:6.1f}"),
            ("lv_src", "lvsrc", "{:7.1f}"), ("lv_back", "lvback", "{:6.1f}"), ("cam", "cam", "{:6.1f}"), ("cam_gap", "camgap", "{:6.1f}"),
-           ("scene", "scene", "{:6.1f}"), ("shown", "shown", "{:6.1f}"), ("img_src", "imgsrc", "{:7.1f}"))
+           ("scene", "scene", "{:6.1f}"), ("shown", "shown", "{:6.1f}"), ("lv_cam", "lvcam", "{:5.2f}"),
+           ("own", "own", "{:6.1f}"), ("lv_scene", "lvscn", "{:7.1f}"), ("img_src", "imgsrc", "{:7.1f}"))
 
 
 def format_rows(rows: list[dict]) -> list[str]:

@@ -147,24 +147,30 @@ def test_bench_rows_say_what_each_step_waited_for():
     # looks the new way, and the scene has it 30 ms later
     log.poses += [(t0 - 0.1, 0.0), (t0 - 0.05, 0.0), (t0 + 0.04, 40.0), (t0 + 0.09, 40.0)]
     log.scenes += [(t0 + 0.04, t0 + 0.07)]
-    # display ticks: old levels, then the turn re-projected from the frame at t0 − 0.05 (a quarter
-    # of the way), then the new camera frame's levels (all the way) at t0 + 0.075
+    # display ticks (stamp, camera frame, levels, the depth frame of their scene result): old levels,
+    # then the turn re-projected from the frame at t0 − 0.05 (a quarter of the way), then the new
+    # camera frame with the old frame's scene result carried into it at t0 + 0.08 (as little of the
+    # way), then with its own (all the way) from t0 + 0.09
+    partly = np.where(np.arange(10) < 3, 8, 0).astype(np.uint8)
     for k in range(-10, 60):
         t = t0 + 0.02 * k / 2
         if t < t0 + 0.005:
-            log.frames.append((t, t0 - 0.05, old))
+            log.frames.append((t, t0 - 0.05, old, t0 - 0.05))
         elif t < t0 + 0.075:
-            log.frames.append((t, t0 - 0.05, np.where(np.arange(10) < 3, 8, 0).astype(np.uint8)))
+            log.frames.append((t, t0 - 0.05, partly, t0 - 0.05))
+        elif t < t0 + 0.085:
+            log.frames.append((t, t0 + 0.04, partly, t0 - 0.05))
         else:
-            log.frames.append((t, t0 + 0.04, new))
-    result = StepResult(t0, 8.0, onset_s=0.012, halfway_s=0.15, onset_stamp=t0 + 0.005, halfway_stamp=t0 + 0.08)
+            log.frames.append((t, t0 + 0.04, new, t0 + 0.04))
+    result = StepResult(t0, 8.0, onset_s=0.012, halfway_s=0.15, onset_stamp=t0 + 0.005, halfway_stamp=t0 + 0.09)
     rows = step_rows(log, [result], [t0, t0 + 0.59], [40.0, 0.0], 40.0, model_halfway=[60.0], system_onset=[9.0])
     r = rows[0]
     assert r["k"] == 0 and r["seen"] is False and r["halfway"] == pytest.approx(150.0) and r["less"] == pytest.approx(90.0)
-    assert r["lv_first"] == pytest.approx(0.3) and r["lv_half"] == pytest.approx(80.0)   # the first tick with new levels
-    assert r["lv_src"] == pytest.approx(40.0) and r["img_src"] == pytest.approx(40.0)
+    assert r["lv_first"] == pytest.approx(0.3) and r["lv_half"] == pytest.approx(90.0)   # the frame's own scene
+    assert r["lv_src"] == pytest.approx(40.0) and r["img_src"] == pytest.approx(40.0) and r["lv_scene"] == pytest.approx(40.0)
     assert r["cam"] == pytest.approx(40.0) and r["cam_gap"] == pytest.approx(90.0)       # one 20 Hz frame missing
     assert r["scene"] == pytest.approx(70.0) and r["shown"] == pytest.approx(80.0) and r["lv_back"] is None
+    assert r["lv_cam"] == pytest.approx(0.3) and r["own"] == pytest.approx(90.0)        # carried: no nearer
     lines = format_rows(rows)
     assert len(lines) == 2 and "camgap" in lines[0] and "90.0" in lines[1]
     assert "step 0 90 ms (levels from a camera frame taken after the step" in slowest_summary(rows)
