@@ -26,6 +26,7 @@ boxes and free floor (given in the support plane's frame).
 from __future__ import annotations
 
 import dataclasses
+from typing import Sequence
 
 import cv2
 import numpy as np
@@ -90,22 +91,29 @@ def _moved_obstacle(o: ObstacleCluster, T: np.ndarray, fnew_from_fold: np.ndarra
 
 def carry_labels(labels: np.ndarray, depth: np.ndarray, camera: CameraIntrinsics, new_from_old: np.ndarray,
                  floor_plane: np.ndarray | None, stride: int = _DEFAULTS.stride,
-                 config: SceneConfig = _DEFAULTS) -> np.ndarray:
+                 config: SceneConfig = _DEFAULTS, earlier: Sequence[tuple[np.ndarray, np.ndarray]] = ()) -> np.ndarray:
     """Scene classes (⌈H/stride⌉, ⌈W/stride⌉) uint8 of the new ``depth`` (H, W) [m, NaN = none;
     ``camera`` its intrinsics) from the old frame's ``labels`` (any size, registered to the old
     depth image) and the motion ``new_from_old`` (C' ← C). ``floor_plane``: the floor in the
-    *new* camera frame (normal up), or None without floor."""
+    *new* camera frame (normal up), or None without floor. ``earlier``: results of frames that
+    looked elsewhere (labels, C' ← that frame; the same camera), in order of preference: a pixel
+    the old frame did not see takes the label of the first of them that saw it (a head turned
+    back to a view seen before gets that view's labels, not ones continued from its neighbours)."""
     cloud = organised_cloud(depth, camera, stride, config.min_depth, config.max_depth)
     valid, p_new = cloud.valid, cloud.points                    # NaN where there is no reading
-    old_from_new = np.linalg.inv(np.asarray(new_from_old, dtype=np.float64))
-    u, v, _ = camera.project(_points(old_from_new, p_new.reshape(-1, 3)))
-    hl, wl = labels.shape
-    with np.errstate(invalid="ignore"):
-        u = np.rint(u * (wl / camera.width)).reshape(valid.shape)
-        v = np.rint(v * (hl / camera.height)).reshape(valid.shape)
-        seen = valid & (u >= 0) & (u < wl) & (v >= 0) & (v < hl)
     out = np.full(valid.shape, L.NONE, np.uint8)
-    out[seen] = labels[v[seen].astype(np.intp), u[seen].astype(np.intp)]
+    for source, motion in ((labels, new_from_old), *earlier):
+        todo = np.flatnonzero(valid & (out == L.NONE))
+        if todo.size == 0:
+            break
+        old_from_new = np.linalg.inv(np.asarray(motion, dtype=np.float64))
+        u, v, _ = camera.project(_points(old_from_new, p_new.reshape(-1, 3)[todo]))
+        hl, wl = source.shape
+        with np.errstate(invalid="ignore"):
+            u = np.rint(u * (wl / camera.width))
+            v = np.rint(v * (hl / camera.height))
+            seen = (u >= 0) & (u < wl) & (v >= 0) & (v < hl)
+        out.reshape(-1)[todo[seen]] = source[v[seen].astype(np.intp), u[seen].astype(np.intp)]
     unknown = valid & (out == L.NONE)           # came into view, or the old frame had no reading there
     floorish = np.zeros(valid.shape, bool)
     if floor_plane is not None and np.all(np.isfinite(floor_plane)):

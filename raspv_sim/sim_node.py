@@ -293,6 +293,12 @@ class SimNode(SimGazeLog, RaspvNode):
             self.pub_collisions.publish(self.collision_msg(event, world_header))
             self.get_logger().info(f"collision #{event.count} with {event.cls} '{event.name}' at {event.speed:.2f} m/s")
         self.pub_info.publish(self.camera_info)          # before the images: a node's first image finds it
+        # the poses too: a node computing an image finds the head and base it was rendered with
+        # (the spv node re-projects it to the newest head; a pose after it left a frame rendered
+        # just before a head turn shown as if it looked the new way until its pose came)
+        self.publish_tf(header.stamp)
+        self.pub_pose.publish(PoseStamped(header=world_header, pose=matrix_to_pose(frame.world_from_camera)))
+        self.pub_odom.publish(self.odometry(Header(stamp=header.stamp, frame_id=frames.ODOM)))
         self.pub_color.publish(array_to_image(frame.rgb, "rgb8", header))
         self.pub_depth.publish(array_to_image(frame.depth, "32FC1", header))
         if not getattr(self, "_first_frame_logged", False):   # the start of a recording is checked against it
@@ -301,9 +307,6 @@ class SimNode(SimGazeLog, RaspvNode):
             self.get_logger().info(f"first camera frame published, stamp {h.sec + 1e-9 * h.nanosec:.6f}")
         if frame.labels is not None:
             self.pub_labels.publish(array_to_image(frame.labels, "mono8", header))
-        self.publish_tf(header.stamp)
-        self.pub_pose.publish(PoseStamped(header=world_header, pose=matrix_to_pose(frame.world_from_camera)))
-        self.pub_odom.publish(self.odometry(Header(stamp=header.stamp, frame_id=frames.ODOM)))
         for name in report.goals_reached:
             self.get_logger().info(f"goal '{name}' reached at t = {report.t:.1f} s")
         t3 = time.monotonic()

@@ -56,7 +56,7 @@ from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.rotations import quaternion_to_matrix
 from raspv_spv.camera_source import head_turns_camera
 from raspv_spv.frame_inputs import FrameInputs
-from raspv_spv.view_memory import MAX_FILL_VIEWS, ViewMemory, fill_outside
+from raspv_spv.view_memory import MAX_FILL_VIEWS, SceneResult, ViewMemory, fill_outside, remembered_scene_labels
 
 # R_{H←C}: the optical frame's axes (x right, y down, z forward) in the head frame (x forward,
 # y left, z up) — the same convention as the simulator's avatar (raspv_sim.avatar).
@@ -273,6 +273,7 @@ class DisplayView:
         self.tracker = ViewTracker(history_s=max(HISTORY_S, self.latency_s + 1.0))
         self.frames = FrameHistory()
         self.memory = ViewMemory(max_age_s=memory_s)
+        self.scenes = ViewMemory(max_age_s=memory_s)      # scene perception's own results, by direction
         self._last: tuple[object, DisplayFrame, np.ndarray | None, np.ndarray] | None = None
         self.turned_ticks = 0                     # ticks whose levels were re-sampled
         self.filled_ticks = 0                     # ... of them with phosphenes filled from remembered views
@@ -284,6 +285,8 @@ class DisplayView:
         self.latency_s = latency_ms / 1000.0
         if memory_s is not None and memory_s != self.memory.max_age_s:
             self.memory = ViewMemory(max_age_s=memory_s)
+            self.scenes = ViewMemory(max_age_s=memory_s)
+        self.scenes = ViewMemory(max_age_s=memory_s)      # scene perception's own results, by direction
         self._last = None
 
     @property
@@ -297,6 +300,31 @@ class DisplayView:
             seen = self.tracker.world_from_camera(frame.stamp)
             if seen is not None:
                 self.memory.remember(frame, *seen)
+
+    def remember_scene(self, stamp: float, labels: np.ndarray) -> None:
+        """Keep scene perception's own ``labels`` of the depth frame captured at ``stamp`` [s], by
+        the direction the camera looked then (as :meth:`add_frame` keeps frames)."""
+        if not self.remembering or labels is None:
+            return
+        seen = self.tracker.world_from_camera(stamp)
+        pose = self.tracker.camera_pose_at(stamp)
+        if seen is not None and pose is not None:
+            self.scenes.remember(SceneResult(stamp, labels, pose), *seen)
+
+    def remembered_scenes(self, stamp: float, world_from_camera: np.ndarray | None,
+                          exclude: float | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Scene perception's own results remembered before ``stamp`` [s] (without the one of
+        stamp ``exclude``) and their motion to a depth frame taken then with camera pose W ← C
+        ``world_from_camera`` (4×4), for carrying a scene result into it
+        (:func:`~raspv_spv.view_memory.remembered_scene_labels`); [] when nothing is remembered
+        or the pose or the base is not known."""
+        if world_from_camera is None or not self.remembering:
+            return []
+        view = self.tracker.world_from_view(stamp)
+        if view is None:
+            return []
+        return remembered_scene_labels(self.scenes.candidates(stamp, view[1]), world_from_camera,
+                                       before=stamp - STAMP_TOLERANCE_S, exclude=exclude)
 
     def newest_frame(self) -> DisplayFrame | None:
         """The newest frame added (whatever the device latency), or None."""

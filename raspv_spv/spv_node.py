@@ -210,6 +210,7 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvPage, SpvReconfiguration, Raspv
             return
         self.stamps["color"] = stamp_to_seconds(msg.header.stamp)
         self._arrived("color")
+        self._take_pending_poses()
         self._frame_arrived("color")
 
     def on_depth(self, msg: Image) -> None:
@@ -220,7 +221,18 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvPage, SpvReconfiguration, Raspv
             return
         self.stamps["depth"] = stamp_to_seconds(msg.header.stamp)
         self._arrived("depth")
+        self._take_pending_poses()
         self._frame_arrived("depth")
+
+    def _take_pending_poses(self) -> None:
+        """Camera poses and odometry already waiting are taken before a frame is computed: the
+        executor may hand the frame over first, and a frame whose pose is not in is computed with
+        one predicted from the poses before it — after a head turn, the old direction — and shown
+        re-projected from the head of its stamp until its own pose comes."""
+        for name, callback in (("camera_pose", self.on_pose), ("odom", self.on_odom)):
+            sub = self._subs.get(name)
+            while sub is not None and (msg := self.take_pending(sub)) is not None:
+                callback(msg)
 
     def on_pose(self, msg: PoseStamped) -> None:
         stamp = stamp_to_seconds(msg.header.stamp)
@@ -336,6 +348,8 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvPage, SpvReconfiguration, Raspv
             # scene modes run when the scene node's outputs of one depth frame are all in; with
             # carry_scene a newer depth frame is shown at once with them carried into it
             complete = which in scene_inputs and len({self.stamps[n] for n in scene_inputs}) == 1
+            if complete and "scene_labels" in scene_inputs:     # by direction, for carrying into later frames
+                self.view.remember_scene(self.stamps["scene_labels"], self.scene_labels)
             if (plan.normal and "scene_labels" in scene_inputs and (which == "depth" or complete)
                     and self._carry_scene(sim)):
                 return
@@ -397,8 +411,10 @@ class SpvNode(SpvDisplay, SpvGaze, SpvFrames, SpvPage, SpvReconfiguration, Raspv
         new_from_old = np.eye(4) if at_new is None or at_old is None else np.linalg.inv(at_new) @ at_old
         if scene is not None:
             scene = structure_seen_from(scene, new_from_old)
+        # what the newest result did not see from the views remembered in that direction (a head turned back)
+        earlier = self.view.remembered_scenes(new, at_new, exclude=old)
         carried = carry_labels(labels, depth, self.intrinsics, new_from_old,
-                               scene.floor_plane if scene is not None and scene.floor_found else None)
+                               scene.floor_plane if scene is not None and scene.floor_found else None, earlier=earlier)
         inputs = FrameInputs(color=self.color, depth=depth, camera=self.intrinsics, stamp=new, scene=scene,
                              scene_labels=carried, scene_stamp=old, extras=dict(self.extras))
         self._finish_frame(inputs, predicted=self._pose_comes_later(new))

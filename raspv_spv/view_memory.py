@@ -122,3 +122,34 @@ def fill_outside(levels: np.ndarray, inside: np.ndarray, sources) -> tuple[np.nd
         if not missing.any():
             break
     return out, filled
+
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """Scene perception's own result for the depth frame captured at ``stamp`` [s]: its
+    ``labels`` (registered to that depth image) and the camera pose W ← C (4×4) at the stamp."""
+
+    stamp: float
+    labels: np.ndarray
+    world_from_camera: np.ndarray
+
+
+def remembered_scene_labels(views, world_from_new: np.ndarray, before: float, exclude: float | None = None,
+                            limit: int = MAX_FILL_VIEWS) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Scene results remembered by direction (``views``: :class:`RememberedView` of
+    :class:`SceneResult`, newest first) for a depth frame the camera took at W ← C'
+    ``world_from_new`` (4×4): (labels, C' ← C 4×4) of at most ``limit`` results of frames taken
+    before ``before`` [s], without the one of stamp ``exclude``.
+    :func:`raspv_perception.scene_carry.carry_labels` takes them as ``earlier``: a head turned back
+    to a direction seen before gets that direction's labels at once. Only scene perception's own
+    results are remembered, never labels carried into a frame (carrying a carried frame again
+    would continue its guesses)."""
+    new_from_world = np.linalg.inv(np.asarray(world_from_new, dtype=np.float64))
+    out = []
+    for view in views:
+        result = view.frame
+        if result.stamp >= before or (exclude is not None and abs(result.stamp - exclude) < 1e-6):
+            continue
+        out.append((result.labels, new_from_world @ np.asarray(result.world_from_camera, dtype=np.float64)))
+    return out[:limit]

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from raspv_spv.view_memory import ViewMemory, fill_outside
+from raspv_spv.view_memory import SceneResult, ViewMemory, fill_outside, remembered_scene_labels
 
 
 def _yaw(deg: float) -> np.ndarray:
@@ -50,6 +50,24 @@ def test_fill_takes_each_missing_phosphene_from_the_newest_view_that_saw_it():
     assert out.tolist() == [5, 7, 6, 0] and filled == 2
     assert levels.tolist() == [5, 0, 0, 0]                       # the input is not changed
     assert fill_outside(levels, np.ones(4, bool), iter([]))[1] == 0
+
+
+def test_remembered_scene_results_in_the_new_frame():
+    """The scene results a new depth frame may take labels from: taken before it, without the one
+    carried already (``exclude``), newest first, with the motion C' ← C."""
+    def remembered(stamp, yaw):
+        pose = np.eye(4)
+        pose[:3, :3] = _yaw(yaw)
+        result = SceneResult(stamp, np.full((2, 2), stamp), pose)
+        return SimpleNamespace(stamp=stamp, frame=result)
+    views = [remembered(3.0, 0), remembered(2.0, 40), remembered(1.5, 80), remembered(0.5, -40)]
+    new = np.eye(4)
+    new[:3, :3] = _yaw(40)
+    out = remembered_scene_labels(views, new, before=2.5, exclude=1.5, limit=3)
+    assert [labels[0, 0] for labels, _ in out] == [2.0, 0.5]
+    np.testing.assert_allclose(out[0][1][:3, :3], np.eye(3), atol=1e-12)        # it looked the same way
+    np.testing.assert_allclose(out[1][1][:3, :3], _yaw(-80), atol=1e-12)
+    assert len(remembered_scene_labels(views, new, before=9.0, limit=3)) == 3
 
 
 # -- the apartment ------------------------------------------------------------------------------
