@@ -422,6 +422,12 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
               "frame of the client's half-way image]:")
         for line in format_rows(rows):
             print(f"    {line}")
+        back = [r["k"] for r in rows if r["lv_back"] is not None]
+        cam = [r["lv_cam"] for r in rows if r["lv_cam"] is not None]
+        print(f"  the display's levels half-way to the new view [ms] {_stats([r['lv_half'] for r in rows])}; steps whose "
+              f"levels went back past half-way afterwards: {len(back)} of {len(rows)}{' (' + ', '.join(map(str, back)) + ')' if back else ''}; "
+              f"share of the way when the first camera frame looking the new way was shown: "
+              f"{'n/a' if not cam else f'min {min(cam):.2f}, median {np.median(cam):.2f}'}")
         if temporal_on:
             print(f"  slowest steps by half-way less the model's own: {slowest_summary(rows)}")
         print(f"  (the client's frames and the probe's messages: {out}, {workdir / 'probe.npz'})")
