@@ -303,7 +303,8 @@ def system_onsets(log: ProbeLog, results, receipt: np.ndarray, stamps: np.ndarra
 def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) -> list[str]:
     from raspv_bringup.testing import Probe, RunningGraph
     from raspv_common.thread_priority import raise_thread_priority
-    from raspv_bench.e2e_steps import format_rows, save_probe_log, slowest_summary, step_rows, temporal_build_up
+    from raspv_bench.e2e_steps import (display_halfway, format_rows, save_probe_log, slowest_summary, step_rows,
+                                      temporal_build_up)
     from raspv_bench.motion_latency import analyse_steps
 
     print(f"\n{label}  [{' '.join(overrides)}]")
@@ -413,8 +414,20 @@ def run_configuration(args, graph_path: Path, label: str, overrides: list[str]) 
         rows = step_rows(log, results, list(step_times), list(step_yaws), args.amplitude, b_halfway, system)
         for row in rows:                    # the issue's figure: half-way less the model's median 50 % rise
             row["less_rise"] = None if rise is None or row["halfway"] is None else row["halfway"] - rise
+        if temporal_on:
+            # the same half-way as the display drew it: what the system did, apart from the delivery to the client
+            drawn = display_halfway(log, results, ["bridge.port:=0", *overrides], graph_path)
+            for row, d in zip(rows, drawn):
+                row["drawn"] = d
+                row["drawn_less"] = None if d is None or row["model"] is None else d - row["model"]
+                row["delivery"] = None if d is None or row["halfway"] is None else row["halfway"] - d
+            seen, new = _by_direction_seen(results, [r["drawn_less"] for r in rows], list(step_times), list(step_yaws))
+            print(f"  half-way as the display drew it (its levels replayed at their ticks through the model, offline) "
+                  f"less the model's own half-way [ms] {_stats([r['drawn_less'] for r in rows])}; steps to a direction "
+                  f"shown before {_stats(seen)}")
+            print(f"  delivery: the client's half-way less the display's [ms] {_stats([r['delivery'] for r in rows])}")
         print("  per step [ms from the step's first head message; lv*: the display's levels (/spv/frame): lv1st the "
-              "share of their change in the first changed tick, lessrise: half-way less the model's median 50 % rise, lvhalf the tick half-way, lvsrc its camera frame "
+              "share of their change in the first changed tick, lessrise: half-way less the model's median 50 % rise, drawn: half-way as the display drew it, deliv: the client's half-way less that, lvhalf the tick half-way, lvsrc its camera frame "
               "(< 0: taken before the step); cam: the first camera frame looking the new way, camgap its interval "
               "from the one before; scene, shown: it out of scene perception, on the display; lvcam: the share of the "
               "levels' change on that tick; own: its first tick with its own scene result (not one carried from an "

@@ -132,15 +132,10 @@ def step_rows(log, results, step_times, step_yaws, amplitude: float, model_halfw
     return rows
 
 
-def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph_path: Path,
-                      sample_ms: float = 2.0) -> tuple[list, list, list]:
-    """Onset, 50 % and half-way-to-the-new-view latency [ms] of the temporal model alone, one
-    entry per measured step (None where a step has no settled levels): the step's settled levels
-    before → after, switched at once and displayed every ``sample_ms`` through the node's own
-    temporal model offline (the recursive model's pulse clock at a different phase for each
-    step; the look-up table at its frame rate), with the same criteria as at the client."""
+def node_simulator(config_overrides: list[str], graph_path: Path):
+    """The spv node's :class:`~raspv_spv.simulator.PhospheneSimulator` of the graph at
+    ``graph_path`` with ``config_overrides`` (its temporal model, map and renderer)."""
     from raspv_bringup.graph import load_graph
-    from raspv_bench.motion_latency import analyse_steps, reduce_frame
     from raspv_spv.config import config_from_node_params
     from raspv_spv.simulator import PhospheneSimulator
     from raspv_spv.spv_params import PARAMS
@@ -149,9 +144,48 @@ def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph
     entry = next(n for n in graph.nodes if n.kind == "spv")
     params = {p.name: p.default for p in PARAMS}
     params.update(entry.params)
-    sim = PhospheneSimulator(config_from_node_params(params))
+    return PhospheneSimulator(config_from_node_params(params))
+
+
+def display_halfway(log, results, config_overrides: list[str], graph_path: Path) -> list:
+    """Half-way to the new view as the display drew it [ms from each step's send time], one entry
+    per result (None: never): the levels the display published (``/spv/frame``) replayed at their
+    tick stamps through the node's temporal model and renderer offline, with the client's criteria
+    — the client's half-way less this is the delivery to the client; this less the model's own
+    half-way is what the display added (levels late, a tick's period)."""
+    from raspv_bench.motion_latency import analyse_steps, reduce_frame
+
+    sim = node_simulator(config_overrides, graph_path)
+    with log.lock:
+        frames = [f for f in log.frames if f[2].shape == (sim.count,)]
+    if not frames:
+        return [None] * len(results)
+    times, images = [], []
+    for f in frames:
+        images.append(reduce_frame(sim.render(sim.brightness(f[2], at_s=f[0]))))
+        times.append(f[0])
+    times = np.array(times)
+    drawn, _ = analyse_steps(times, times, np.stack(images), np.array([r.sent for r in results]))
+    by_sent = {round(d.sent, 6): d for d in drawn}
+    out = []
+    for r in results:
+        d = by_sent.get(round(r.sent, 6))
+        out.append(None if d is None or d.halfway_s is None else 1e3 * d.halfway_s)
+    return out
+
+
+def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph_path: Path,
+                      sample_ms: float = 2.0) -> tuple[list, list, list]:
+    """Onset, 50 % and half-way-to-the-new-view latency [ms] of the temporal model alone, one
+    entry per measured step (None where a step has no settled levels): the step's settled levels
+    before → after, switched at once and displayed every ``sample_ms`` through the node's own
+    temporal model offline (the recursive model's pulse clock at a different phase for each
+    step; the look-up table at its frame rate), with the same criteria as at the client."""
+    from raspv_bench.motion_latency import analyse_steps, reduce_frame
+
+    sim = node_simulator(config_overrides, graph_path)
     recursive = sim.config.temporal_update == "recursive"
-    dt = sample_ms / 1e3 if recursive else 1.0 / params["rate"]
+    dt = sample_ms / 1e3 if recursive else 1.0 / sim.config.frame_rate
     with log.lock:
         frames = list(log.frames)
     onset, half, halfway = [None] * len(results), [None] * len(results), [None] * len(results)
@@ -182,7 +216,8 @@ def temporal_build_up(log: ProbeLog, results, config_overrides: list[str], graph
 
 COLUMNS = (("k", "step", "{:>4d}"), ("seen", "seen", "{!s:>5}"), ("onset", "onset", "{:6.1f}"),
            ("system", "sys", "{:6.1f}"), ("halfway", "half", "{:6.1f}"), ("model", "model", "{:6.1f}"),
-           ("less", "less", "{:6.1f}"), ("less_rise", "lessrise", "{:8.1f}"), ("lv_first", "lv1st", "{:5.2f}"), ("lv_half", "lvhalf", "{:6.1f}"),
+           ("less", "less", "{:6.1f}"), ("less_rise", "lessrise", "{:8.1f}"),
+           ("drawn", "drawn", "{:6.1f}"), ("delivery", "deliv", "{:6.1f}"), ("lv_first", "lv1st", "{:5.2f}"), ("lv_half", "lvhalf", "{:6.1f}"),
            ("lv_src", "lvsrc", "{:7.1f}"), ("lv_back", "lvback", "{:6.1f}"), ("cam", "cam", "{:6.1f}"), ("cam_gap", "camgap", "{:6.1f}"),
            ("scene", "scene", "{:6.1f}"), ("shown", "shown", "{:6.1f}"), ("lv_cam", "lvcam", "{:5.2f}"),
            ("own", "own", "{:6.1f}"), ("lv_scene", "lvscn", "{:7.1f}"), ("img_src", "imgsrc", "{:7.1f}"))
