@@ -20,7 +20,8 @@ NS = {"f": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
 HEADSET_GAP_TARGET_S = 0.3   # issue 36: no gap without frames longer than this after a kill
 RING_PERIOD_S = 0.05         # the bridge's no-data ring and its check (raspv_hmd/bridge_frames.py)
 # Below this a listener starved by load for a few of its (timeout/3) wake-ups is declared dead
-# and its port recreated (messages lost); 150 ms showed no such reset in 60 kills at load 8-14.
+# and its port recreated (messages lost); at 150 ms that happened once in 60 spv kills at load
+# 7.6-24, to a process niced to 10 (docs/limits.md).
 LOWEST_SAFE_MS = 100
 
 
