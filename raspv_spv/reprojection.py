@@ -286,7 +286,6 @@ class DisplayView:
         if memory_s is not None and memory_s != self.memory.max_age_s:
             self.memory = ViewMemory(max_age_s=memory_s)
             self.scenes = ViewMemory(max_age_s=memory_s)
-        self.scenes = ViewMemory(max_age_s=memory_s)      # scene perception's own results, by direction
         self._last = None
 
     @property

@@ -68,6 +68,15 @@ def test_remembered_scene_results_in_the_new_frame():
     np.testing.assert_allclose(out[0][1][:3, :3], np.eye(3), atol=1e-12)        # it looked the same way
     np.testing.assert_allclose(out[1][1][:3, :3], _yaw(-80), atol=1e-12)
     assert len(remembered_scene_labels(views, new, before=9.0, limit=3)) == 3
+    # the display keeps them across a run-time change that leaves the memory as it is
+    from raspv_spv.reprojection import DisplayView
+    display = DisplayView(memory_s=10.0)
+    scenes = display.scenes
+    display.configure(True, 0.0, "sim")
+    display.configure(True, 0.0, "sim", memory_s=10.0)
+    assert display.scenes is scenes
+    display.configure(True, 0.0, "sim", memory_s=5.0)
+    assert display.scenes is not scenes and display.scenes.max_age_s == 5.0
 
 
 # -- the apartment ------------------------------------------------------------------------------
