@@ -12,6 +12,7 @@ from raspv_msgs.msg import SceneStructure as SceneStructureMsg
 from sensor_msgs.msg import CameraInfo
 
 from raspv_bringup.graph import CONFIG_DIR
+from raspv_bringup.testing import RunningGraph
 from raspv_bench.camera import tum_drift_frames
 from raspv_camera.sdk_recordings import (SourceFrame, write_depthai_recording, write_realsense_recording)
 from raspv_common import topics
@@ -47,14 +48,46 @@ def phosphenes_from_the_camera(probe, timeout=120, lit=True, mode=None):
                                   and (not lit or max(m.levels, default=0) > 0) and (mode is None or m.mode == mode))
 
 
-def test_realsense_recording_to_phosphenes_in_the_headset_client(graph, probe, tum_recordings):
-    g = graph(CONFIG_DIR / "camera.yaml", [f"camera.file:={tum_recordings['realsense']}", *BRIDGE])
-    phosphenes_from_the_camera(probe, mode="chess_floor")     # the graph's mode: the scene node's frames come
-    url = re.search(r"open (http://\S+) in a browser", g.wait_for_output(r"open http://\S+ in a browser").group(0)).group(1)
-    report = asyncio.run(run_client(parse_endpoint(url), ClientOptions(duration_s=60, max_frames=20,
-                                                                       keep_last_frame=True)))
-    assert report.frames == 20 and report.last_frame is not None and np.asarray(report.last_frame).max() > 0
-    g.wait_for_output(r"\[scene\].*first frame 640x480: floor 1\.\d\d m below", timeout=30)
+class TestTheRealSenseRecording:
+    """config/camera.yaml on the RealSense recording, started once for two tests in this order: its
+    phosphenes reach a headset client, then its loops over the following seconds."""
+
+    @pytest.fixture(scope="class")
+    def realsense_graph(self, tmp_path_factory, ros_domain, tum_recordings):
+        g = RunningGraph(CONFIG_DIR / "camera.yaml", tmp_path_factory.mktemp("realsense_graph"),
+                         [f"camera.file:={tum_recordings['realsense']}", *BRIDGE])
+        yield g
+        code = g.stop()
+        assert code == 0, f"the camera graph ended with exit code {code}:\n{g.output[-3000:]}"
+
+    def test_realsense_recording_to_phosphenes_in_the_headset_client(self, realsense_graph, probe):
+        g = realsense_graph
+        phosphenes_from_the_camera(probe, mode="chess_floor")     # the graph's mode: the scene node's frames come
+        url = re.search(r"open (http://\S+) in a browser", g.wait_for_output(r"open http://\S+ in a browser").group(0)).group(1)
+        report = asyncio.run(run_client(parse_endpoint(url), ClientOptions(duration_s=60, max_frames=20,
+                                                                           keep_last_frame=True)))
+        assert report.frames == 20 and report.last_frame is not None and np.asarray(report.last_frame).max() > 0
+        g.wait_for_output(r"\[scene\].*first frame 640x480: floor 1\.\d\d m below", timeout=30)
+
+    def test_a_recordings_loop_is_not_a_stop(self, realsense_graph, probe):
+        """A 1-second recording looping (issue 21): its camera node stays alive and delivering while it
+        re-opens the file, so the wearer never sees the no-data ring at a loop, and the scene node,
+        alive, never makes the mode fall back — over some eight loops (and none since the graph started)."""
+        from std_msgs.msg import String
+
+        from raspv_common.qos import LATCHED_QOS
+
+        phosphenes_from_the_camera(probe, mode="chess_floor")
+        status = probe.subscribe(topics.SPV_STATUS, String, qos=LATCHED_QOS)
+        frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
+        got = frames.wait(400, timeout=120)                     # 8 s of 50 Hz display: ~8 loops of the recording
+        shown = {}
+        for f in got:
+            shown[f.mode] = shown.get(f.mode, 0) + 1
+        last = json.loads(status.wait(1, timeout=10)[0].data) if not status.messages else json.loads(status.messages[-1].data)
+        print(f"\nover {len(got)} display frames: {shown}; status {last}")
+        assert shown.get("no_data", 0) == 0 and set(shown) == {"chess_floor"}, shown
+        assert last["stale_episodes"] == 0, last
 
 
 def test_depthai_recording_to_phosphenes(graph, probe, tum_recordings):
@@ -88,25 +121,3 @@ def test_imu_gravity_finds_a_floor_the_mounting_rules_out(graph, probe, tum_reco
         assert last.gravity_source == SceneStructureMsg.GRAVITY_FLOOR
     else:     # the mounting's limits rule the real floor out (the desk top, 1.07 m below, is in range)
         assert not (last.floor_found and abs(last.camera_height - 1.79) < 0.2)
-
-
-def test_a_recordings_loop_is_not_a_stop(graph, probe, tum_recordings):
-    """A 1-second recording looping (issue 21): its camera node stays alive and delivering while it
-    re-opens the file, so the wearer never sees the no-data ring at a loop, and the scene node,
-    alive, never makes the mode fall back — over some eight loops."""
-    from std_msgs.msg import String
-
-    from raspv_common.qos import LATCHED_QOS
-
-    graph(CONFIG_DIR / "camera.yaml", [f"camera.file:={tum_recordings['realsense']}", *BRIDGE])
-    phosphenes_from_the_camera(probe, mode="chess_floor")
-    status = probe.subscribe(topics.SPV_STATUS, String, qos=LATCHED_QOS)
-    frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
-    got = frames.wait(400, timeout=120)                     # 8 s of 50 Hz display: ~8 loops of the recording
-    shown = {}
-    for f in got:
-        shown[f.mode] = shown.get(f.mode, 0) + 1
-    last = json.loads(status.wait(1, timeout=10)[0].data) if not status.messages else json.loads(status.messages[-1].data)
-    print(f"\nover {len(got)} display frames: {shown}; status {last}")
-    assert shown.get("no_data", 0) == 0 and set(shown) == {"chess_floor"}, shown
-    assert last["stale_episodes"] == 0, last

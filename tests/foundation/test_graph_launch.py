@@ -12,6 +12,7 @@ import pytest
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image
 
+from raspv_bringup.testing import RunningGraph
 from raspv_common import topics
 from raspv_common.conversions import camera_info_to_intrinsics, depth_from_image, image_to_array
 
@@ -21,39 +22,48 @@ SOURCE = {"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}]},
           "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120}}}
 
 
-def test_source_graph_publishes_consistent_rgbd(graph, probe):
-    g = graph(SOURCE)
-    color = probe.wait_for_message(topics.COLOR, Image, timeout=60)
-    depth = probe.wait_for_message(topics.DEPTH, Image)
-    info = probe.wait_for_message(topics.CAMERA_INFO, CameraInfo)
-    pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped)
-    assert image_to_array(color).shape == (120, 160, 3)
-    d = depth_from_image(depth)
-    assert d.shape == (120, 160) and np.nanmin(d) > 0.5
-    assert camera_info_to_intrinsics(info).hfov_deg == pytest.approx(60.0)
-    assert pose.header.frame_id == "map" and pose.pose.position.z == pytest.approx(1.6)
-    assert g.running()
+class TestOneSourceGraph:
+    """One source graph (started once) for three tests in this order: its topics, its parameters at
+    run time, then Ctrl-C stops it and the launcher reports each node's resources."""
 
+    @pytest.fixture(scope="class")
+    def source(self, tmp_path_factory, ros_domain):
+        g = RunningGraph(SOURCE, tmp_path_factory.mktemp("source"))
+        yield g
+        stopped_by_test = g.returncode is not None       # the last test stopped it and checked its exit code
+        code = g.stop()
+        assert stopped_by_test or code == 0, f"the source graph ended with exit code {code}:\n{g.output[-3000:]}"
 
-def test_parameters_change_at_run_time_and_bad_values_are_refused(graph, probe):
-    graph(SOURCE)
-    probe.wait_for_message(topics.COLOR, Image, timeout=60)
-    [(name, ok, reason)] = probe.set_params("cam", {"walk_speed": 9.0})
-    assert not ok and "walk_speed" in reason
-    [(_, ok, reason)] = probe.set_params("cam", {"rate": 2.0})
-    assert not ok and "read-only" in reason
-    [(_, ok, _)] = probe.set_params("cam", {"walk_speed": 0.0})
-    assert ok
-    assert probe.get_params("cam", ["walk_speed"]) == {"walk_speed": 0.0}
+    def test_source_graph_publishes_consistent_rgbd(self, source, probe):
+        g = source
+        color = probe.wait_for_message(topics.COLOR, Image, timeout=60)
+        depth = probe.wait_for_message(topics.DEPTH, Image)
+        info = probe.wait_for_message(topics.CAMERA_INFO, CameraInfo)
+        pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped)
+        assert image_to_array(color).shape == (120, 160, 3)
+        d = depth_from_image(depth)
+        assert d.shape == (120, 160) and np.nanmin(d) > 0.5
+        assert camera_info_to_intrinsics(info).hfov_deg == pytest.approx(60.0)
+        assert pose.header.frame_id == "map" and pose.pose.position.z == pytest.approx(1.6)
+        assert g.running()
 
+    def test_parameters_change_at_run_time_and_bad_values_are_refused(self, source, probe):
+        probe.wait_for_message(topics.COLOR, Image, timeout=60)
+        [(name, ok, reason)] = probe.set_params("cam", {"walk_speed": 9.0})
+        assert not ok and "walk_speed" in reason
+        [(_, ok, reason)] = probe.set_params("cam", {"rate": 2.0})
+        assert not ok and "read-only" in reason
+        [(_, ok, _)] = probe.set_params("cam", {"walk_speed": 0.0})
+        assert ok
+        assert probe.get_params("cam", ["walk_speed"]) == {"walk_speed": 0.0}
 
-def test_ctrl_c_stops_everything_and_reports_resources(graph, probe):
-    g = graph(SOURCE)
-    probe.wait_for_message(topics.COLOR, Image, timeout=60)
-    assert g.stop(signal.SIGINT) == 0
-    out = g.output
-    assert re.search(r"cam\s+synthetic\s+0\s+\d+\s+[\d.]+", out), out
-    assert "resources per node" in out
+    def test_ctrl_c_stops_everything_and_reports_resources(self, source, probe):
+        g = source
+        probe.wait_for_message(topics.COLOR, Image, timeout=60)
+        assert g.stop(signal.SIGINT) == 0
+        out = g.output
+        assert re.search(r"cam\s+synthetic\s+0\s+\d+\s+[\d.]+", out), out
+        assert "resources per node" in out
 
 
 def test_sigterm_also_stops_cleanly(graph, probe):

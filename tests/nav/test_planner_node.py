@@ -1,4 +1,6 @@
 """The planner node in a graph with the synthetic RGB-D source."""
+from typing import NamedTuple
+
 import numpy as np
 import pytest
 from geometry_msgs.msg import Twist
@@ -6,6 +8,7 @@ from nav_msgs.msg import OccupancyGrid as OccupancyGridMsg
 from nav_msgs.msg import Path
 from raspv_msgs.msg import NavGuidance
 
+from raspv_bringup.testing import RunningGraph
 from raspv_camera.synthetic_scene import SyntheticRoom
 from raspv_common import topics
 from raspv_common.intrinsics import CameraIntrinsics
@@ -13,6 +16,12 @@ from raspv_common.qos import LATCHED_QOS
 from raspv_common.occupancy import OCCUPIED, OccupancyGrid, save_map
 
 pytestmark = pytest.mark.integration
+
+
+class RoomGraph(NamedTuple):
+    room: SyntheticRoom
+    goal: list[float]
+    graph: RunningGraph
 
 
 def room_map(room: SyntheticRoom, res: float = 0.05) -> OccupancyGrid:
@@ -28,59 +37,67 @@ def room_map(room: SyntheticRoom, res: float = 0.05) -> OccupancyGrid:
     return grid
 
 
-def test_planner_publishes_a_path_to_the_goal_around_obstacles(graph, probe, tmp_path):
-    room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
-    save_map(room_map(room), tmp_path / "room.yaml")
-    goal = [3.2, 1.5]   # behind the low cabinet at x ∈ [2.3, 3.1], y ∈ [-0.6, 0.6]
-    graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}]},
-           "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
-           "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": goal}}})
-    costmap = probe.wait_for_message("/nav/global_costmap", OccupancyGridMsg, timeout=60, qos=LATCHED_QOS)
-    assert (costmap.info.width, costmap.info.height) == (160, 120)
-    path = probe.wait_for_message(topics.NAV_PATH, Path, timeout=60)
-    pts = np.array([[p.pose.position.x, p.pose.position.y] for p in path.poses])
-    start = room.pose_at(0.0)[:2, 3]
-    assert np.linalg.norm(pts[0] - start) < 0.1 and np.linalg.norm(pts[-1] - goal) < 1e-6
-    dense = np.concatenate([np.linspace(a, b, 40) for a, b in zip(pts, pts[1:])])
-    for box in room.boxes:   # never inside a box grown by the robot radius
-        inside = ((dense[:, 0] > box.lo[0] - 0.3) & (dense[:, 0] < box.hi[0] + 0.3)
-                  & (dense[:, 1] > box.lo[1] - 0.3) & (dense[:, 1] < box.hi[1] + 0.3))
-        assert not inside.any()
-    # the walker stands at the start facing along the room: the hint sets off along the path,
-    # turning towards it (the velocity window allows v ≥ 0 only, so v > 0 is what says "go")
-    hint = probe.wait_for_message("/nav/cmd_vel_hint", Twist)
-    forward = room.pose_at(0.0)[:2, 2] / np.linalg.norm(room.pose_at(0.0)[:2, 2])   # the camera's z axis
-    along = np.cumsum(np.r_[0.0, np.linalg.norm(np.diff(dense, axis=0), axis=1)])
-    ahead = dense[np.searchsorted(along, 1.0)] - pts[0]                               # 1 m along the path
-    bearing = np.degrees(np.arctan2(forward[0] * ahead[1] - forward[1] * ahead[0], forward @ ahead))
-    print(f"hint v {hint.linear.x:.3f} m/s, w {hint.angular.z:.3f} rad/s; the path 1 m ahead at {bearing:.1f}°")
-    assert hint.linear.x > 0.0
-    if abs(bearing) > 5.0:
-        assert np.sign(hint.angular.z) == np.sign(bearing)
-    # inflated costs, not the raw map: obstacle cells, the inscribed ring and graded costs
-    static = np.array(costmap.data, np.int8)
-    assert {100, 99}.issubset(set(static.tolist())) and ((static > 0) & (static < 99)).any()
-    live = probe.wait_for_message(topics.NAV_OBSTACLE_LAYER, OccupancyGridMsg, timeout=60,
-                                  predicate=lambda m: 100 in m.data)
-    values = np.array(live.data, np.int8)
-    assert (values == 0).any() and (values == -1).any()            # seen free, never seen
-    combined = probe.wait_for_message(topics.NAV_COSTMAP, OccupancyGridMsg, timeout=60)
-    assert (combined.info.width, combined.info.height) == (160, 120)
-    guidance = probe.wait_for_message(topics.NAV_GUIDANCE, NavGuidance, timeout=30, predicate=lambda m: m.has_path)
-    assert guidance.has_waypoint and guidance.header.frame_id == "map"
+class TestTheRoomGraph:
+    """One graph (the synthetic room's camera, standing, and the planner on the room's map, the goal
+    behind the low cabinet at x ∈ [2.3, 3.1], y ∈ [-0.6, 0.6]) for two tests in this order: the path,
+    hint and costmaps, then the goal moved off the map (started once, stopped after the class)."""
 
+    @pytest.fixture(scope="class")
+    def room_graph(self, tmp_path_factory, ros_domain):
+        tmp_path = tmp_path_factory.mktemp("room_graph")
+        room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
+        save_map(room_map(room), tmp_path / "room.yaml")
+        goal = [3.2, 1.5]
+        g = RunningGraph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}]},
+                          "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
+                          "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": goal}}}, tmp_path)
+        yield RoomGraph(room, goal, g)
+        code = g.stop()
+        assert code == 0, f"the room graph ended with exit code {code}:\n{g.output[-3000:]}"
 
-def test_without_a_path_an_empty_path_replaces_the_old_one(graph, probe, tmp_path):
-    room = SyntheticRoom(CameraIntrinsics.from_hfov(64, 48, 60.0))
-    save_map(room_map(room), tmp_path / "room.yaml")
-    g = graph({"launch": {"nodes": [{"kind": "synthetic", "name": "cam"}, {"kind": "planner"}]},
-               "cam": {"ros__parameters": {"rate": 10.0, "width": 160, "height": 120, "walk_speed": 0.0}},
-               "planner": {"ros__parameters": {"map": str(tmp_path / "room.yaml"), "goal": [3.2, 1.5]}}})
-    probe.wait_for_message(topics.NAV_PATH, Path, timeout=90, predicate=lambda m: len(m.poses) >= 2)
-    [(_, ok, _)] = probe.set_params("planner", {"goal": [30.0, 1.5]})     # off the map
-    assert ok
-    probe.wait_for_message(topics.NAV_PATH, Path, timeout=30, predicate=lambda m: len(m.poses) == 0)
-    g.wait_for_output(r"no path to the goal: goal \(30\.00, 1\.50\) is outside the map")
+    def test_planner_publishes_a_path_to_the_goal_around_obstacles(self, room_graph, probe):
+        room, goal = room_graph.room, room_graph.goal
+        costmap = probe.wait_for_message("/nav/global_costmap", OccupancyGridMsg, timeout=60, qos=LATCHED_QOS)
+        assert (costmap.info.width, costmap.info.height) == (160, 120)
+        path = probe.wait_for_message(topics.NAV_PATH, Path, timeout=60)
+        pts = np.array([[p.pose.position.x, p.pose.position.y] for p in path.poses])
+        start = room.pose_at(0.0)[:2, 3]
+        assert np.linalg.norm(pts[0] - start) < 0.1 and np.linalg.norm(pts[-1] - goal) < 1e-6
+        dense = np.concatenate([np.linspace(a, b, 40) for a, b in zip(pts, pts[1:])])
+        for box in room.boxes:   # never inside a box grown by the robot radius
+            inside = ((dense[:, 0] > box.lo[0] - 0.3) & (dense[:, 0] < box.hi[0] + 0.3)
+                      & (dense[:, 1] > box.lo[1] - 0.3) & (dense[:, 1] < box.hi[1] + 0.3))
+            assert not inside.any()
+        # the walker stands at the start facing along the room: the hint sets off along the path,
+        # turning towards it (the velocity window allows v ≥ 0 only, so v > 0 is what says "go")
+        hint = probe.wait_for_message("/nav/cmd_vel_hint", Twist)
+        forward = room.pose_at(0.0)[:2, 2] / np.linalg.norm(room.pose_at(0.0)[:2, 2])   # the camera's z axis
+        along = np.cumsum(np.r_[0.0, np.linalg.norm(np.diff(dense, axis=0), axis=1)])
+        ahead = dense[np.searchsorted(along, 1.0)] - pts[0]                               # 1 m along the path
+        bearing = np.degrees(np.arctan2(forward[0] * ahead[1] - forward[1] * ahead[0], forward @ ahead))
+        print(f"hint v {hint.linear.x:.3f} m/s, w {hint.angular.z:.3f} rad/s; the path 1 m ahead at {bearing:.1f}°")
+        assert hint.linear.x > 0.0
+        if abs(bearing) > 5.0:
+            assert np.sign(hint.angular.z) == np.sign(bearing)
+        # inflated costs, not the raw map: obstacle cells, the inscribed ring and graded costs
+        static = np.array(costmap.data, np.int8)
+        assert {100, 99}.issubset(set(static.tolist())) and ((static > 0) & (static < 99)).any()
+        live = probe.wait_for_message(topics.NAV_OBSTACLE_LAYER, OccupancyGridMsg, timeout=60,
+                                      predicate=lambda m: 100 in m.data)
+        values = np.array(live.data, np.int8)
+        assert (values == 0).any() and (values == -1).any()            # seen free, never seen
+        combined = probe.wait_for_message(topics.NAV_COSTMAP, OccupancyGridMsg, timeout=60)
+        assert (combined.info.width, combined.info.height) == (160, 120)
+        guidance = probe.wait_for_message(topics.NAV_GUIDANCE, NavGuidance, timeout=30, predicate=lambda m: m.has_path)
+        assert guidance.has_waypoint and guidance.header.frame_id == "map"
+
+    def test_without_a_path_an_empty_path_replaces_the_old_one(self, room_graph, probe):
+        g = room_graph.graph
+        probe.wait_for_message(topics.NAV_PATH, Path, timeout=90, predicate=lambda m: len(m.poses) >= 2)
+        [(_, ok, _)] = probe.set_params("planner", {"goal": [30.0, 1.5]})     # off the map
+        assert ok
+        probe.wait_for_message(topics.NAV_PATH, Path, timeout=30, predicate=lambda m: len(m.poses) == 0)
+        g.wait_for_output(r"no path to the goal: goal \(30\.00, 1\.50\) is outside the map")
 
 
 def test_planner_without_map_fails_with_one_line(graph):

@@ -21,6 +21,7 @@ from raspv_msgs.msg import CollisionEvent
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
 
+from raspv_bringup.testing import RunningGraph
 from raspv_common import topics
 from raspv_common.conversions import depth_from_image, image_to_array, pose_to_matrix
 from raspv_common.qos import LATCHED_QOS
@@ -42,32 +43,67 @@ def sim_graph(params: dict) -> dict:
             "sim": {"ros__parameters": {"width": 160, "height": 120, "rate": 15.0, **params}}}
 
 
-def test_sim_publishes_the_source_topics_and_ground_truth(graph, probe):
-    g = graph(sim_graph({"world": "apartment"}))
-    color = probe.wait_for_message(topics.COLOR, Image, timeout=60)
-    assert (color.encoding, color.width, color.height) == ("rgb8", 160, 120)
-    assert color.header.frame_id == "camera_color_optical_frame"
-    assert image_to_array(color).std() > 5
-    depth = depth_from_image(probe.wait_for_message(topics.DEPTH, Image))
-    assert np.isfinite(depth).mean() > 0.5 and np.nanmax(depth) <= 8.0
-    info = probe.wait_for_message(topics.CAMERA_INFO, CameraInfo)
-    f = 160 / (2 * math.tan(math.radians(30)))
-    assert list(info.k) == pytest.approx([f, 0, 79.5, 0, f, 59.5, 0, 0, 1])
-    pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped)
-    T = pose_to_matrix(pose.pose)
-    assert pose.header.frame_id == "map"
-    assert T[:3, 3] == pytest.approx([0.7 + 0.08, 3.8, 1.6], abs=1e-6)   # spawn, eye 8 cm ahead of the neck
-    assert T[:3, 2] == pytest.approx([1, 0, 0], abs=1e-6)                # looking along the corridor (+x)
-    odom = probe.wait_for_message(topics.ODOM, Odometry)
-    assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_link")
-    assert odom.pose.pose.position.x == pytest.approx(0.7)
-    labels = probe.wait_for_message(topics.SIM_LABELS, Image)
-    assert labels.encoding == "mono8"
-    table = json.loads(probe.wait_for_message(topics.SIM_CLASSES, String, qos=LATCHED_QOS).data)
-    assert table["world"] == "apartment" and table["classes"][:3] == ["none", "floor", "wall"]
-    present = {table["classes"][i] for i in np.unique(image_to_array(labels))}
-    assert {"floor", "wall"} <= present
-    g.wait_for_output(r"renderer: (EGL OpenGL \(.+\)|TinyRenderer \(software; .+\));")   # says which
+class TestTheApartmentGraph:
+    """One sim graph in the apartment (started once, stopped after the class) for two tests in
+    this order: the source topics at the spawn, then the head turned and the eye raised."""
+
+    @pytest.fixture(scope="class")
+    def apartment(self, tmp_path_factory, ros_domain):
+        g = RunningGraph(sim_graph({"world": "apartment"}), tmp_path_factory.mktemp("apartment"))
+        yield g
+        code = g.stop()
+        assert code == 0, f"the apartment graph ended with exit code {code}:\n{g.output[-3000:]}"
+
+    def test_sim_publishes_the_source_topics_and_ground_truth(self, apartment, probe):
+        g = apartment
+        color = probe.wait_for_message(topics.COLOR, Image, timeout=60)
+        assert (color.encoding, color.width, color.height) == ("rgb8", 160, 120)
+        assert color.header.frame_id == "camera_color_optical_frame"
+        assert image_to_array(color).std() > 5
+        depth = depth_from_image(probe.wait_for_message(topics.DEPTH, Image))
+        assert np.isfinite(depth).mean() > 0.5 and np.nanmax(depth) <= 8.0
+        info = probe.wait_for_message(topics.CAMERA_INFO, CameraInfo)
+        f = 160 / (2 * math.tan(math.radians(30)))
+        assert list(info.k) == pytest.approx([f, 0, 79.5, 0, f, 59.5, 0, 0, 1])
+        pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped)
+        T = pose_to_matrix(pose.pose)
+        assert pose.header.frame_id == "map"
+        assert T[:3, 3] == pytest.approx([0.7 + 0.08, 3.8, 1.6], abs=1e-6)   # spawn, eye 8 cm ahead of the neck
+        assert T[:3, 2] == pytest.approx([1, 0, 0], abs=1e-6)                # looking along the corridor (+x)
+        odom = probe.wait_for_message(topics.ODOM, Odometry)
+        assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_link")
+        assert odom.pose.pose.position.x == pytest.approx(0.7)
+        labels = probe.wait_for_message(topics.SIM_LABELS, Image)
+        assert labels.encoding == "mono8"
+        table = json.loads(probe.wait_for_message(topics.SIM_CLASSES, String, qos=LATCHED_QOS).data)
+        assert table["world"] == "apartment" and table["classes"][:3] == ["none", "floor", "wall"]
+        present = {table["classes"][i] for i in np.unique(image_to_array(labels))}
+        assert {"floor", "wall"} <= present
+        g.wait_for_output(r"renderer: (EGL OpenGL \(.+\)|TinyRenderer \(software; .+\));")   # says which
+
+    def test_head_orientation_turns_the_camera_pose_only(self, apartment, probe):
+        probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, timeout=60)
+        pub = probe.publisher(topics.HEAD_ORIENTATION, QuaternionStamped, wait_for_subscribers=1)
+        x, y, z, w = head_quaternion(0.0, math.radians(20), math.radians(45))
+        msg = QuaternionStamped(quaternion=Quaternion(x=x, y=y, z=z, w=w))
+        msg.header.frame_id = "base_link"
+
+        def turned(m: PoseStamped) -> bool:
+            pub.publish(msg)
+            axis = pose_to_matrix(m.pose)[:3, 2]
+            return abs(math.degrees(math.atan2(axis[1], axis[0])) - 45.0) < 0.01
+        pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, predicate=turned, timeout=30)
+        axis = pose_to_matrix(pose.pose)[:3, 2]
+        assert math.degrees(math.asin(-axis[2])) == pytest.approx(20.0, abs=0.01)     # looking 20° down
+        odom = probe.wait_for_message(topics.ODOM, Odometry)
+        assert odom.pose.pose.orientation.z == pytest.approx(0.0, abs=1e-9)        # the base did not turn
+        # run-time parameters: the eye height moves the camera; the body's shape cannot change
+        assert probe.set_params("sim", {"eye_height": 1.2}) == [("eye_height", True, "")]
+        pitch = math.radians(20)     # neck pivot 0.1 m below the eye; eye 8 cm ahead, 10 cm up, turned with the head
+        eye_z = 1.2 - 0.1 + 0.1 * math.cos(pitch) - 0.08 * math.sin(pitch)
+        probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, predicate=lambda m: abs(m.pose.position.z - eye_z) < 1e-6)
+        [(name, ok, reason)] = probe.set_params("sim", {"max_step": 0.1})
+        assert not ok and "read-only parameter: max_step" in reason
 
 
 def test_driving_into_a_wall_stops_the_avatar_publishes_a_collision_and_logs_it(graph, probe, tmp_path):
@@ -101,32 +137,6 @@ def test_driving_into_a_wall_stops_the_avatar_publishes_a_collision_and_logs_it(
     assert json.loads((runs[0] / "summary.json").read_text())["collisions"] == 1
     assert (runs[0] / "trajectory.png").is_file()
     assert "run logged in" in g.output
-
-
-def test_head_orientation_turns_the_camera_pose_only(graph, probe):
-    graph(sim_graph({"world": "apartment", "renderer": "tiny"}))
-    probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, timeout=60)
-    pub = probe.publisher(topics.HEAD_ORIENTATION, QuaternionStamped, wait_for_subscribers=1)
-    x, y, z, w = head_quaternion(0.0, math.radians(20), math.radians(45))
-    msg = QuaternionStamped(quaternion=Quaternion(x=x, y=y, z=z, w=w))
-    msg.header.frame_id = "base_link"
-
-    def turned(m: PoseStamped) -> bool:
-        pub.publish(msg)
-        axis = pose_to_matrix(m.pose)[:3, 2]
-        return abs(math.degrees(math.atan2(axis[1], axis[0])) - 45.0) < 0.01
-    pose = probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, predicate=turned, timeout=30)
-    axis = pose_to_matrix(pose.pose)[:3, 2]
-    assert math.degrees(math.asin(-axis[2])) == pytest.approx(20.0, abs=0.01)     # looking 20° down
-    odom = probe.wait_for_message(topics.ODOM, Odometry)
-    assert odom.pose.pose.orientation.z == pytest.approx(0.0, abs=1e-9)        # the base did not turn
-    # run-time parameters: the eye height moves the camera; the body's shape cannot change
-    assert probe.set_params("sim", {"eye_height": 1.2}) == [("eye_height", True, "")]
-    pitch = math.radians(20)     # neck pivot 0.1 m below the eye; eye 8 cm ahead, 10 cm up, turned with the head
-    eye_z = 1.2 - 0.1 + 0.1 * math.cos(pitch) - 0.08 * math.sin(pitch)
-    probe.wait_for_message(topics.CAMERA_POSE, PoseStamped, predicate=lambda m: abs(m.pose.position.z - eye_z) < 1e-6)
-    [(name, ok, reason)] = probe.set_params("sim", {"max_step": 0.1})
-    assert not ok and "read-only parameter: max_step" in reason
 
 
 def test_a_broken_world_is_a_one_line_configuration_error(graph, tmp_path):
