@@ -160,9 +160,10 @@ def bench_sequence(path: Path, args) -> dict[str, float]:
         print(f"{path}: no ground truth; skipped")
         return {}
     gt_stamps, gt_poses = np.array([t for t, _ in gt]), np.array([p for _, p in gt])
-    config = SlamConfig(distortion=rec.distortion, threads=1)
+    config = SlamConfig(distortion=rec.distortion, rolling_shutter_readout=rec.rolling_shutter, threads=1)
     print(f"\n{path} ({len(frames)} frames, {rec.intrinsics.width}x{rec.intrinsics.height}, "
-          f"distortion {'yes' if rec.distortion else 'no'}); load average {_load()}")
+          f"distortion {'yes' if rec.distortion else 'no'}, rolling shutter {1e3 * rec.rolling_shutter:.0f} ms); load average "
+          f"{_load()}")
     s = run_slam(frames, rec.intrinsics, config, odometry=True)
     slam = s["slam"]
     online = [(r.stamp, r.map_from_camera) for r in s["results"]

@@ -18,6 +18,8 @@ class SlamConfig:
     min_depth: float = 0.3              # depth readings used for 3-D points [m] (Kinect v1: ~0.4-4.5 m)
     max_depth: float = 4.0              # farther structured-light depth is too noisy (σ ≈ 2.9 mm·z², Khoshelham 2012) [m]
     distortion: tuple[float, ...] = ()  # plumb-bob k1 k2 p1 p2 [k3] of the colour camera; () = rectified images
+    rolling_shutter_readout: float = 0.0   # [s] first to last row of the colour camera's rolling shutter (0: global
+                                        # shutter); frames are corrected to mid-row time by the predicted rotation rate
     # -- matching and PnP
     match_ratio: float = 0.8            # Lowe's ratio test on Hamming distances
     max_hamming: int = 64               # of 256 bits: ORB-SLAM's TH_LOW 50 / TH_HIGH 100
@@ -66,6 +68,8 @@ class SlamConfig:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if not 0 <= self.rolling_shutter_readout < 0.1:
+            raise ValueError(f"rolling_shutter_readout must be in [0, 0.1) s, got {self.rolling_shutter_readout}")
         if not self.new_map_after >= 0:
             raise ValueError(f"new_map_after must be >= 0 s (0: never start a new map), got {self.new_map_after}")
         if not 0 <= self.min_depth < self.max_depth:

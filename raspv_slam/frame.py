@@ -18,6 +18,7 @@ from raspv_common.intrinsics import CameraIntrinsics
 from raspv_perception.rgbd_odometry import DenseImage, DenseRegistration, OdometryConfig
 from raspv_slam.config import SlamConfig
 from raspv_slam.features import FeatureExtractor, Features
+from raspv_slam.rolling_shutter import correct_features, correct_images
 
 PROBE_STRIDE = 8            # px of the small (dense-registration) image between verification points
 
@@ -80,13 +81,23 @@ class FramePreparer:
                                   or depth.shape != (K.height, K.width)):
             raise ValueError(f"depth must be a {K.width}x{K.height} float image in metres, got {depth.dtype} {depth.shape}")
 
-    def prepare(self, stamp: float, rgb: np.ndarray | None, depth: np.ndarray | None) -> Frame:
+    def prepare(self, stamp: float, rgb: np.ndarray | None, depth: np.ndarray | None,
+                omega: np.ndarray | None = None) -> Frame:
+        """``omega``: the camera's rotation rate (3,) in C [rad/s] the motion model predicts; with
+        the config's ``rolling_shutter_readout`` the frame is corrected to its mid-row time
+        (:mod:`rolling_shutter`)."""
         self.check(rgb, depth)
         if depth is not None:
             depth = np.asarray(depth, dtype=np.float32)
+        readout = self.config.rolling_shutter_readout
+        skew = omega is not None and readout > 0 and rgb is not None
         features = Features.empty()
         if rgb is not None:
             features = self.extractor.extract(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), depth)
+            if skew and len(features):
+                uv, points = correct_features(features.keypoints, features.points, features.keypoints[:, 1] + 0.5,
+                                              self.intrinsics, omega, readout)
+                features = Features(uv, features.descriptors, points, features.octaves)
         size = (self.small_intrinsics.width, self.small_intrinsics.height)
         small_rgb = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA) if rgb is not None else None
         small_depth = cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST) if depth is not None else None
@@ -95,6 +106,8 @@ class FramePreparer:
                 small_rgb = cv2.remap(small_rgb, *self._maps, cv2.INTER_LINEAR)
             if small_depth is not None:
                 small_depth = cv2.remap(small_depth, *self._maps, cv2.INTER_NEAREST, borderValue=float("nan"))
+        if skew:
+            small_rgb, small_depth = correct_images(small_rgb, small_depth, self.small_intrinsics, omega, readout)
         dense = self.dense_image(small_rgb, small_depth) if small_depth is not None else None
         sharpness = 0.0
         if small_rgb is not None:

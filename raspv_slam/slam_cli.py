@@ -56,6 +56,9 @@ def _recording_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera", choices=sorted(CAMERA_PRESETS), help="intrinsics preset (tum-fr1 also sets its distortion)")
     p.add_argument("--intrinsics", help="YAML with fx, fy, cx, cy (or a ROS calibration file)")
     p.add_argument("--distortion", type=float, nargs="+", metavar="K", help="plumb-bob k1 k2 p1 p2 [k3]")
+    p.add_argument("--rolling-shutter", type=float, metavar="SECONDS",
+                   help="readout of the colour camera's rolling shutter, first to last row (default: the preset's, "
+                        "tum-fr1/fr2 0.025; else 0, a global shutter)")
     p.add_argument("--frames", type=int, help="use only the first N frames")
     p.add_argument("--start", type=int, default=0, help="skip the first N frames")
 
@@ -65,7 +68,8 @@ def _open(args):
 
     values = read_intrinsics(args.intrinsics) if args.intrinsics else None
     return open_recording(args.recording, camera=args.camera, intrinsics=values,
-                          distortion=tuple(args.distortion) if args.distortion else None)
+                          distortion=tuple(args.distortion) if args.distortion else None,
+                          rolling_shutter=args.rolling_shutter)
 
 
 def _frames(rec, args):
@@ -82,7 +86,7 @@ def _frames(rec, args):
 def _config(rec):
     from raspv_slam.config import SlamConfig
 
-    return SlamConfig(distortion=rec.distortion)
+    return SlamConfig(distortion=rec.distortion, rolling_shutter_readout=rec.rolling_shutter)
 
 
 def _progress(i: int, total: int | None, result) -> None:
