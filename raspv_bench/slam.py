@@ -48,7 +48,9 @@ QUICK = {"sequences": [str(SUBSET)], "frames": 30, "split": False}
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("sequences", nargs="*", help="TUM-format sequence folders or bags (default: "
                         "$RASPV_SLAM_SEQUENCES, else /work/shared/data/sequences/tum_fr1_rpy)")
-    parser.add_argument("--camera", default="tum-fr1", help="intrinsics preset for frames folders (default tum-fr1)")
+    parser.add_argument("--camera", help="intrinsics preset (with its distortion and rolling-shutter readout) for "
+                        "frames folders (default: a folder's own intrinsics.yaml, as `raspv sim walk` writes, "
+                        "else tum-fr1)")
     parser.add_argument("--frames", type=int, help="only the first N frames of each sequence")
     parser.add_argument("--split", action=argparse.BooleanOptionalAction, default=True,
                         help="also map the first half and localise the second (default on)")
@@ -149,11 +151,24 @@ def _row(name: str, e, tracked: str, wall, cpu, extra: str = "") -> None:
           f"{_pct(wall, 95):5.1f}  cpu ms median {np.median(cpu):5.1f} p95 {_pct(cpu, 95):5.1f}{extra}")
 
 
+def _camera(path: Path, given: str | None) -> str | None:
+    """The preset for ``path``: the one given; none for a bag (its camera info) or a frames folder
+    with its own intrinsics.yaml (a simulator walk: no Kinect distortion or rolling shutter);
+    else tum-fr1 (the shared TUM sequences' folders do not name their camera)."""
+    from raspv_slam.recordings import INTRINSICS_FILE
+
+    if given is not None:
+        return given
+    if path.suffix or not path.is_dir() or (path / "metadata.yaml").is_file() or (path / INTRINSICS_FILE).is_file():
+        return None
+    return "tum-fr1"
+
+
 def bench_sequence(path: Path, args) -> dict[str, float]:
     from raspv_slam.config import SlamConfig
     from raspv_slam.recordings import open_recording
 
-    rec = open_recording(path, camera=args.camera if not path.suffix else None)
+    rec = open_recording(path, camera=_camera(path, args.camera))
     frames = list(rec.frames(args.frames))
     gt = [(f.stamp, f.groundtruth) for f in frames if f.groundtruth is not None]
     if len(gt) < 3:

@@ -48,6 +48,7 @@ class Recording:
     notes: list[str] = field(default_factory=list)
     _frames: object = None
     rolling_shutter: float = 0.0                # [s] readout of the colour camera's rolling shutter (0: global)
+    camera: str | None = None                   # the preset in use (given, or a TUM folder's own), else None
 
     def frames(self, limit: int | None = None) -> Iterator[RecordingFrame]:
         n = 0
@@ -65,7 +66,7 @@ def open_recording(path: str | Path, camera: str | None = None, intrinsics: dict
     rolling-shutter readout); ``intrinsics``: fx, fy, cx, cy [px] overriding the bag's camera
     info; ``rolling_shutter``: readout [s] overriding the preset's."""
     rec = _open_recording(path, camera, intrinsics, distortion)
-    rec.rolling_shutter = ROLLING_SHUTTER_READOUT.get(camera or "", 0.0) if rolling_shutter is None else rolling_shutter
+    rec.rolling_shutter = ROLLING_SHUTTER_READOUT.get(rec.camera or "", 0.0) if rolling_shutter is None else rolling_shutter
     return rec
 
 
@@ -120,7 +121,8 @@ def _open_frames(path: Path, values: dict | None, camera: str | None, distortion
                 continue
             yield RecordingFrame(pair.stamp_s, rgb, depth, pair.pose)
 
-    return Recording(path, fs.layout, K, tuple(distortion), len(fs.pairs), notes, frames)
+    return Recording(path, fs.layout, K, tuple(distortion), len(fs.pairs), notes, frames,
+                     camera=preset)          # the same preset gives the distortion above and the readout
 
 
 def _open_bag(path: Path, values: dict | None, camera: str | None, distortion) -> Recording:
@@ -157,7 +159,7 @@ def _open_bag(path: Path, values: dict | None, camera: str | None, distortion) -
     if distortion is None:          # the preset's, else the bag's camera info's (from-frames writes a preset's)
         distortion = CAMERA_DISTORTION.get(camera, ()) if camera else source.distortion
     return Recording(path, "bag", K, tuple(distortion), count,
-                     list(reader.notes) + source.notes, frames)
+                     list(reader.notes) + source.notes, frames, camera=camera)
 
 
 def _first_size(reader) -> tuple[int, int]:
