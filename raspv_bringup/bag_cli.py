@@ -242,6 +242,7 @@ def _repair(args: argparse.Namespace) -> int:
 def _from_frames(args: argparse.Namespace) -> int:
     from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, FramesError, discover_frames,
                                         load_intrinsics_file, write_frames_bag)
+    from raspv_common.intrinsics import OPENCV_DISTORTION_COUNTS
     from raspv_bags.writer import BagWriteError
 
     given = [k for k in ("fx", "fy", "cx", "cy") if getattr(args, k) is not None]
@@ -275,7 +276,7 @@ def _from_frames(args: argparse.Namespace) -> int:
                 print(f"\r{_bar(done, total)}", end="", file=sys.stderr, flush=True)
 
         distortion = tuple(args.distortion) if args.distortion else CAMERA_DISTORTION.get(args.camera or "", ())
-        if len(distortion) not in (0, 4, 5, 8):
+        if distortion and len(distortion) not in OPENCV_DISTORTION_COUNTS:
             raise FramesError(f"--distortion takes 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), "
                               f"got {len(distortion)}")
         report = write_frames_bag(frames, intr, Path(args.output), args.storage, progress, distortion=distortion)

@@ -17,7 +17,7 @@ from geometry_msgs.msg import Point, Pose, Quaternion
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
 
-from raspv_common.intrinsics import CameraIntrinsics
+from raspv_common.intrinsics import OPENCV_DISTORTION_COUNTS, CameraIntrinsics
 from raspv_common.rotations import matrix_to_quaternion, quaternion_to_matrix  # noqa: F401 (re-exported)
 
 # encoding → (numpy dtype, channels)
@@ -142,7 +142,7 @@ def camera_info_distortion(msg: CameraInfo) -> tuple[float, ...]:
     if msg.distortion_model not in OPENCV_DISTORTION_MODELS:
         raise ValueError(f"distortion model {msg.distortion_model!r} is not supported "
                          f"(only {', '.join(OPENCV_DISTORTION_MODELS)}): rectify the images first")
-    if len(d) not in (4, 5, 8):
+    if len(d) not in OPENCV_DISTORTION_COUNTS:
         raise ValueError(f"{msg.distortion_model} needs 4, 5 or 8 coefficients, got {len(d)}")
     return d
 

@@ -11,6 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# Lens distortion coefficient counts OpenCV's pinhole functions take: k1 k2 p1 p2 [k3 [k4 k5 k6]]
+# (ROS: plumb_bob 4-5, rational_polynomial 8).
+OPENCV_DISTORTION_COUNTS = (4, 5, 8)
+
 
 @dataclass(frozen=True)
 class CameraIntrinsics:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from raspv_common.intrinsics import OPENCV_DISTORTION_COUNTS
+
 
 @dataclass(frozen=True)
 class SlamConfig:
@@ -81,7 +83,7 @@ class SlamConfig:
         for name in ("min_agreement", "keyframe_overlap", "covisible_overlap"):
             if not 0 <= getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
-        if len(self.distortion) not in (0, 4, 5, 8):
+        if self.distortion and len(self.distortion) not in OPENCV_DISTORTION_COUNTS:
             raise ValueError(f"distortion needs 4, 5 or 8 plumb-bob coefficients (or none), got {len(self.distortion)}")
         if self.scale_factor <= 1:
             raise ValueError(f"scale_factor must be > 1, got {self.scale_factor}")

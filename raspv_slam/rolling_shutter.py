@@ -17,19 +17,14 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from raspv_common.intrinsics import CameraIntrinsics
 
 
 def _rotations(theta: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) of rotation vectors (N, 3) (Rodrigues)."""
-    angle = np.linalg.norm(theta, axis=1)
-    k = theta / np.where(angle > 1e-12, angle, 1.0)[:, None]
-    K = np.zeros((len(theta), 3, 3))
-    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
-    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
-    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
-    return np.eye(3) + s * K + (1 - c) * (K @ K)
+    """Rotation matrices (N, 3, 3) of rotation vectors (N, 3)."""
+    return Rotation.from_rotvec(np.asarray(theta, np.float64).reshape(-1, 3)).as_matrix()
 
 
 def row_rotations(rows: np.ndarray, height: int, omega: np.ndarray, readout: float) -> np.ndarray:
