@@ -36,6 +36,9 @@ def check_recording_opens(path: str | Path, sdk: str) -> None:
     """Raise :class:`CameraError` (one line naming the file) when the recording ``path`` of
     ``sdk`` ("realsense", "openni2", "depthai") cannot be played; return when it can."""
     path = Path(path).expanduser()
+    if (path if path.is_dir() else path.parent).joinpath("metadata.yaml").is_file():
+        raise CameraError(f"{path}: a ROS 2 bag (it has metadata.yaml), not a camera SDK's recording: play it with "
+                          f"`raspv launch replay replay.bag:={path if path.is_dir() else path.parent}`")
     if sdk == "realsense":
         if path.suffix.lower() == ".bag":
             _check_rosbag1(path)
@@ -47,8 +50,9 @@ def check_recording_opens(path: str | Path, sdk: str) -> None:
         from raspv_camera.depthai_driver import recording_files
 
         files = recording_files(path)
-        if not files:
-            raise CameraError(f"{path}: no .mcap file: not a DepthAI recording")
+        if len(files) < 2:
+            raise CameraError(f"{path}: a DepthAI recording needs a depth and a colour .mcap file "
+                              f"(found {len(files)})")
         for f in files:
             _check_mcap(f)
 

@@ -55,3 +55,29 @@ def test_depthai_recordings_open_and_cut_ones_do_not(depthai_recording, tmp_path
     _cut(depthai_recording.path / "color.mcap", folder / "color.mcap", 0.5)
     with pytest.raises(CameraError, match=r"color\.mcap: a damaged DepthAI recording file"):
         check_recording_opens(folder, "depthai")
+
+
+def test_a_ros2_bag_given_as_a_camera_recording_points_to_the_replay_graph(tmp_path):
+    """`raspv bag from-frames` writes a ROS 2 bag (a folder with metadata.yaml and an .mcap): the
+    camera node's file check took it for a DepthAI recording and the node retried for ever."""
+    from pathlib import Path
+
+    from raspv_bags.from_frames import CAMERA_PRESETS, discover_frames, write_frames_bag
+    from raspv_camera.drivers import check_recording
+
+    frames = discover_frames(Path(__file__).resolve().parents[1] / "data" / "tum_fr1_rpy_8")
+    fx, fy, cx, cy = CAMERA_PRESETS["tum-fr1"]
+    bag = tmp_path / "tum_bag"
+    write_frames_bag(frames, {"fx": fx, "fy": fy, "cx": cx, "cy": cy}, bag)
+    for given in (bag, next(bag.glob("*.mcap"))):
+        with pytest.raises(ValueError, match=rf"{given}: a ROS 2 bag \(it has metadata\.yaml\), not a camera SDK's "
+                                             rf"recording: play it with `raspv launch replay replay\.bag:={bag}`"):
+            check_recording(str(given), {"driver": "auto"})
+
+
+def test_a_folder_with_one_mcap_is_not_a_depthai_recording(depthai_recording, tmp_path):
+    folder = tmp_path / "one"
+    folder.mkdir()
+    shutil.copy(depthai_recording.path / "color.mcap", folder / "color.mcap")
+    with pytest.raises(CameraError, match=r"one: a DepthAI recording needs a depth and a colour \.mcap file \(found 1\)"):
+        check_recording_opens(folder, "depthai")
