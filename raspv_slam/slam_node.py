@@ -50,10 +50,12 @@ from raspv_common import frames, topics
 from raspv_common.conversions import (ImageEncodingError, camera_info_distortion, depth_from_image, matrix_to_pose,
                                       rgb_from_image)
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
+from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.qos import LATCHED_QOS, LATEST_QOS, SENSOR_QOS
 from raspv_common.shutdown_errors import SHUTDOWN_ERRORS, during_shutdown
 from raspv_common.tf_messages import CameraPoseTf
 from raspv_slam.config import SlamConfig
+from raspv_slam.flow_tracking import FlowTracker
 from raspv_slam.map_store import SlamMapError, maps_dir, resolve_map_path
 from raspv_slam.results import TrackingState
 from raspv_slam.slam_params import PARAMS
@@ -95,7 +97,10 @@ class SlamNode(RaspvNode):
         self.anchored = not p["gravity_from_floor"]
         self.publishing = self.anchored
         self.first_frame_s: float | None = None
-        self.counts = {"frames": 0, "dropped": 0}
+        self.counts = {"frames": 0, "dropped": 0, "flow_frames": 0}
+        self.flow: FlowTracker | None = None    # poses of the frames between max_rate's (worker thread only)
+        self._flow_ref: tuple[np.ndarray, np.ndarray] | None = None   # (odom ← C, map ← odom) of its reference
+        self._odom_poses = PoseBuffer(max_age_s=2.0, max_extrapolation_s=0.2)   # odom ← C published (a guess)
         self._last_state: str | None = None
         self._last_map_id = 0
         self._markers_sent = 0.0
@@ -156,9 +161,11 @@ class SlamNode(RaspvNode):
                     return
                 (key, color_msg, depth_msg), self._newest = self._newest, None
             rate = self.params["max_rate"]
-            if rate > 0 and self._last_key is not None and 0 <= key - self._last_key < 1e9 / rate - FRAME_SLACK_NS:
-                continue
+            due = not (rate > 0 and self._last_key is not None and 0 <= key - self._last_key < 1e9 / rate - FRAME_SLACK_NS)
             try:
+                if not due:
+                    self._flow_frame(key, color_msg)
+                    continue
                 processed = self._process(key, color_msg, depth_msg)
             except SHUTDOWN_ERRORS as exc:           # Ctrl-C/SIGTERM ended the context while it published
                 if during_shutdown(exc, self.context):
@@ -184,6 +191,8 @@ class SlamNode(RaspvNode):
                 self.anchored = self.publishing = True          # a saved map has its frame already
             else:
                 self.system = SlamSystem(self.intrinsics, SlamConfig(**run_settings))
+            if self.params["flow_between"]:
+                self.flow = FlowTracker(self.intrinsics, self.distortion)
         except (OSError, ValueError) as exc:          # SlamMapError is a ValueError: one line naming the map
             self.get_logger().fatal(f"cannot use map {self.map_path}: {exc}")
             self.exit_code = 2
@@ -237,14 +246,42 @@ class SlamNode(RaspvNode):
             self._publish(result, depth_msg.header)
         self._publish_state(result)
         self._publish_markers(now)
+        self._flow_ref = None
+        if self.flow is not None and result.map_from_camera is not None:
+            if self.flow.set_reference(stamp, rgb, depth) >= self.flow.config.min_inliers:
+                self._flow_ref = (result.odom_from_camera, result.map_from_odom)
         return True
+
+    def _flow_frame(self, key: int, color_msg: Image) -> None:
+        """A frame ``max_rate`` leaves out: posed from the last tracked frame by optical flow (when
+        that frame was tracked and the flow finds it), published like the core's poses."""
+        if self._flow_ref is None or not self.publishing:
+            return
+        try:
+            rgb = np.ascontiguousarray(rgb_from_image(color_msg))
+        except ImageEncodingError as exc:
+            self.warn_throttled("input", f"ignoring frame: {exc}")
+            return
+        ref_odom, map_from_odom = self._flow_ref
+        guess = self._odom_poses.predict(key * 1e-9, 0.2)
+        flow = self.flow.track(rgb, None if guess is None else np.linalg.inv(ref_odom) @ guess)
+        if flow.ref_from_camera is None:
+            return
+        self.counts["flow_frames"] += 1
+        odom_from_camera = ref_odom @ flow.ref_from_camera
+        self._send(color_msg.header, odom_from_camera, map_from_odom, map_from_odom @ odom_from_camera)
 
     # -- outputs -------------------------------------------------------------------------------
     def _publish(self, result, header) -> None:
-        self.tf.publish(header.stamp, header.frame_id, result.odom_from_camera, result.map_from_odom)
         pose = result.map_from_camera
         if pose is None and result.state != TrackingState.INITIALISING:
             pose = result.map_from_odom @ result.odom_from_camera        # lost: carried by the motion model
+        self._send(header, result.odom_from_camera, result.map_from_odom, pose)
+
+    def _send(self, header, odom_from_camera: np.ndarray, map_from_odom: np.ndarray, pose: np.ndarray | None) -> None:
+        """tf (map → odom → base_link) and /camera/pose (map ← C) of one frame."""
+        self.tf.publish(header.stamp, header.frame_id, odom_from_camera, map_from_odom)
+        self._odom_poses.add(header.stamp.sec + header.stamp.nanosec * 1e-9, odom_from_camera)
         if pose is not None:
             out = PoseStamped(header=Header(stamp=header.stamp, frame_id=frames.MAP))
             out.pose = matrix_to_pose(pose)
@@ -263,6 +300,7 @@ class SlamNode(RaspvNode):
         doc = {"state": state, "map_id": result.map_id, "stamp": result.stamp, "keyframe": result.keyframe_id, "inliers": result.inliers,
                "time_ms": round(result.time_ms, 1), "mode": self.params["mode"], "anchored": self.anchored,
                "frames": self.counts["frames"], "dropped": self.counts["dropped"],
+               "flow_frames": self.counts["flow_frames"],
                "map": str(self.map_path) if self.map_path else ""}
         self.pub_state.publish(String(data=json.dumps(doc)))
 

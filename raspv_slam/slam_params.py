@@ -20,6 +20,9 @@ PARAMS = [
           "worker can take). As the odometry node: on 2 cores the graph's other nodes keep their share (one 640x480 "
           "frame costs ~30-60 ms of a core); a slow frame drops the frames that came meanwhile, never queues them",
           minimum=0.0, maximum=120.0, unit="Hz"),
+    Param("flow_between", True, "give the frames max_rate leaves out a pose too: sparse optical flow from the last "
+          "frame the core tracked, then PnP (~3 ms a frame), so a display between the core's frames does not guess "
+          "the camera's motion (false: those frames get no pose; the spv node predicts them at constant velocity)"),
     Param("threads", 1, "threads of the SLAM core's OpenCV and Open3D work", minimum=1, maximum=64, dynamic=False),
     Param("gravity_from_floor", True, "align a new map with the floor from /scene/structure (needs a scene node)",
           dynamic=False),
