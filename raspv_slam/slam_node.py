@@ -310,7 +310,7 @@ class SlamNode(RaspvNode):
             return
         self._markers_sent = now
         with self._lock:
-            snap = self.system.snapshot()
+            snap = self.system.snapshot(occupancy=False)     # the markers do not draw it; it takes seconds on a large map
         shapes = slam_markers(snap.keyframe_poses, snap.landmarks, snap.loop_edges,
                               getattr(snap, "covisibility_edges", []))
         self.pub_markers.publish(marker_array(shapes, Header(stamp=self.get_clock().now().to_msg(),

@@ -315,7 +315,9 @@ class SlamSystem:
         self.map.anchor(world_from_floor_plane(np.asarray(floor_plane, np.float64), self.map.pose(ref) @ ref_from_camera))
 
     # -- the map ------------------------------------------------------------------------------
-    def snapshot(self, max_landmarks: int = 5000) -> MapSnapshot:
+    def snapshot(self, max_landmarks: int = 5000, occupancy: bool = True) -> MapSnapshot:
+        """The map now; ``occupancy=False`` leaves the floor occupancy out (None): it is made from
+        every keyframe's depth, seconds on a large map, and the node's markers do not draw it."""
         from raspv_slam.floor_occupancy import floor_occupancy
 
         permanent = set(self.map.permanent)
@@ -331,9 +333,9 @@ class SlamSystem:
             T = world_from_slam @ poses[k]
             points.append(p @ T[:3, :3].T + T[:3, 3])
         landmarks = np.concatenate(points) if points else np.zeros((0, 3))
-        occupancy = floor_occupancy(self.map) if self.map.anchored else None
+        grid = floor_occupancy(self.map) if occupancy and self.map.anchored else None
         return MapSnapshot({k: world_from_slam @ p for k, p in poses.items()}, landmarks[:max_landmarks],
-                           [(e.a, e.b) for e in edges if e.kind == "loop"], occupancy, self.map.anchored,
+                           [(e.a, e.b) for e in edges if e.kind == "loop"], grid, self.map.anchored,
                            [(e.a, e.b) for e in edges if e.kind == "covisibility"])
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:

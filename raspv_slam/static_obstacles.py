@@ -79,27 +79,44 @@ def visibility_evidence(points: np.ndarray, views: list[DepthView], intrinsics: 
     centres = centres.astype(np.float32)
     seen = np.zeros(n_voxels, np.int32)
     through = np.zeros(n_voxels, np.int32)
-    K = intrinsics
-    half_diagonal = voxel * np.sqrt(3.0) / 2.0
     for view in views:
-        depth = np.asarray(view.depth, dtype=np.float32)
-        if depth.shape != (K.height, K.width):
-            raise ValueError(f"a depth view is {depth.shape[1]}x{depth.shape[0]}, the intrinsics {K.width}x{K.height}")
-        R = view.map_from_camera[:3, :3].astype(np.float32)
-        p = (centres - view.map_from_camera[:3, 3].astype(np.float32)) @ R       # camera frame: R^T (x - t)
-        z = p[:, 2]
-        ok = (z > 1e-3) & (z <= max_depth)
-        idx = np.flatnonzero(ok)
-        if not len(idx):
-            continue
-        u = np.rint(K.fx * p[idx, 0] / z[idx] + K.cx).astype(np.int64)
-        v = np.rint(K.fy * p[idx, 1] / z[idx] + K.cy).astype(np.int64)
-        inside = (u >= 1) & (u < K.width - 1) & (v >= 1) & (v < K.height - 1)
-        idx, u, v = idx[inside], u[inside], v[inside]
-        measured = depth[v, u]
-        nearest_around = cv2.erode(np.nan_to_num(depth, nan=0.0), _NEIGHBOURHOOD, borderType=cv2.BORDER_REPLICATE)[v, u]
-        zi = z[idx]
-        tol = half_diagonal + tolerance + tolerance_z2 * zi * zi
-        seen[idx[np.abs(measured - zi) <= tol]] += 1
-        through[idx[nearest_around > zi + tol]] += 1
+        judge_view(centres, view, intrinsics, max_depth, seen, through, voxel, tolerance, tolerance_z2)
     return Evidence(seen[inverse], through[inverse])
+
+
+def judge_view(centres: np.ndarray, view: DepthView, intrinsics: CameraIntrinsics, max_depth: float,
+               seen: np.ndarray, through: np.ndarray, voxel: float = VOXEL, tolerance: float = TOLERANCE,
+               tolerance_z2: float = TOLERANCE_Z2, candidates: np.ndarray | None = None) -> None:
+    """Add one view's votes to ``seen`` and ``through`` (in place) for the voxel ``centres``
+    (V, 3) float32 in M; ``candidates``: indices of the centres that may be in reach (all when None)."""
+    K = intrinsics
+    depth = np.asarray(view.depth, dtype=np.float32)
+    if depth.shape != (K.height, K.width):
+        raise ValueError(f"a depth view is {depth.shape[1]}x{depth.shape[0]}, the intrinsics {K.width}x{K.height}")
+    subset = centres if candidates is None else centres[candidates]
+    R = view.map_from_camera[:3, :3].astype(np.float32)
+    p = (subset - view.map_from_camera[:3, 3].astype(np.float32)) @ R       # camera frame: R^T (x - t)
+    z = p[:, 2]
+    ok = (z > 1e-3) & (z <= max_depth)
+    idx = np.flatnonzero(ok)
+    if not len(idx):
+        return
+    u = np.rint(K.fx * p[idx, 0] / z[idx] + K.cx).astype(np.int64)
+    v = np.rint(K.fy * p[idx, 1] / z[idx] + K.cy).astype(np.int64)
+    inside = (u >= 1) & (u < K.width - 1) & (v >= 1) & (v < K.height - 1)
+    idx, u, v = idx[inside], u[inside], v[inside]
+    measured = depth[v, u]
+    nearest_around = cv2.erode(np.nan_to_num(depth, nan=0.0), _NEIGHBOURHOOD, borderType=cv2.BORDER_REPLICATE)[v, u]
+    zi = z[idx]
+    tol = voxel * np.sqrt(3.0) / 2.0 + tolerance + tolerance_z2 * zi * zi
+    target = idx if candidates is None else candidates[idx]
+    seen[target[np.abs(measured - zi) <= tol]] += 1
+    through[target[nearest_around > zi + tol]] += 1
+
+
+def reach(intrinsics: CameraIntrinsics, max_depth: float) -> float:
+    """[m] the farthest a point with optical depth <= ``max_depth`` inside the image can be from
+    the camera (the image corner's ray): voxels farther away get no vote from it."""
+    K = intrinsics
+    corner = max(abs(0 - K.cx), abs(K.width - 1 - K.cx)) / K.fx, max(abs(0 - K.cy), abs(K.height - 1 - K.cy)) / K.fy
+    return float(max_depth * np.sqrt(1.0 + corner[0] ** 2 + corner[1] ** 2))

@@ -1,0 +1,172 @@
+"""SLAM's memory over a long recording, as ``raspv slam build`` uses the core (issue 32: "memory
+≤ 1 GB after a 10-min walk").
+
+Feeds every frame of a recording to :class:`raspv_slam.slam_system.SlamSystem` (background loop
+closer, floor anchoring by the scene perception, as ``raspv slam build``), while a thread reads
+the resident set of this process and of its children (the pose-graph process) every 0.5 s.
+Every ``--every`` frames it prints the frame, its stamp, the keyframes, the loop closer's backlog
+(keyframes waiting), the resident sets and their peaks so far; at the end it waits for the loop
+closer, saves the map (the node does so every ``autosave_period``) and prints the peaks of each
+phase. ``--trajectory`` writes the final trajectory (TUM format) for ``tools/slam_walk_report.py``,
+``--online`` the poses as tracking gave them frame by frame (what the node publishes).
+
+The loop closer optimises the whole pose graph for every keyframe that gets an edge, so on a
+large map it falls behind tracking. ``--drain-limit S``: wait at most S seconds for it after the
+last frame; then the map is saved as it is (the keyframes are all there; edges and corrections
+still waiting are not), the final trajectory is not written and the waiting keyframes are
+dropped (nothing else in the core stops a backlog).
+
+    python tools/slam_memory_walk.py walks/long_walk --map long_walk --trajectory walks/long_walk/slam.txt
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+
+MB = 2**20
+
+
+class MemorySampler:
+    """Resident set [MB] of this process (``own``) and of it with its children (``total``): now and
+    the peaks since the last :meth:`phase`."""
+
+    def __init__(self, period: float = 0.5) -> None:
+        self._me = psutil.Process()
+        self.period = period
+        self.peak_own = self.peak_total = 0.0
+        self.own = self.total = 0.0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="memory-sampler", daemon=True)
+        self._thread.start()
+
+    def read(self) -> tuple[float, float]:
+        own = self._me.memory_info().rss
+        total = own
+        for child in self._me.children(recursive=True):
+            try:
+                total += child.memory_info().rss
+            except psutil.Error:
+                pass
+        self.own, self.total = own / MB, total / MB
+        self.peak_own, self.peak_total = max(self.peak_own, self.own), max(self.peak_total, self.total)
+        return self.own, self.total
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.period):
+            self.read()
+
+    def phase(self) -> tuple[float, float]:
+        """(peak own, peak total) since the last call; starts a new phase."""
+        self.read()
+        out = (self.peak_own, self.peak_total)
+        self.peak_own, self.peak_total = self.own, self.total
+        return out
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("recording", help="a TUM-layout folder (raspv sim walk) or a bag")
+    parser.add_argument("--map", help="save the map here at the end (a name or a folder)")
+    parser.add_argument("--trajectory", help="write the final trajectory here (TUM format)")
+    parser.add_argument("--every", type=int, default=250, help="print a line every N frames (default 250)")
+    parser.add_argument("--online", help="write the poses as tracking gave them here (TUM format)")
+    parser.add_argument("--drain-limit", type=float, help="wait at most this long [s] for the loop closer at the end")
+    parser.add_argument("--frames", type=int, help="only the first N frames")
+    args = parser.parse_args(argv)
+
+    from raspv_perception.scene_config import SceneConfig
+    from raspv_perception.scene_perception import ScenePerception
+    from raspv_slam.config import SlamConfig
+    from raspv_slam.evaluation import write_trajectory
+    from raspv_slam.map_store import save_map
+    from raspv_slam.recordings import RecordingError, open_recording
+    from raspv_slam.slam_system import SlamSystem
+
+    try:
+        rec = open_recording(args.recording)
+    except RecordingError as exc:
+        print(f"slam_memory_walk: {exc}", file=sys.stderr)
+        return 2
+    sampler = MemorySampler()
+    scene = ScenePerception(SceneConfig())
+    start = time.monotonic()
+    print(f"start: resident set {sampler.read()[0]:.0f} MB", flush=True)
+    slam = SlamSystem(rec.intrinsics, SlamConfig(distortion=rec.distortion, rolling_shutter_readout=rec.rolling_shutter))
+    online_stamps, online_poses = [], []
+    drained = True
+    try:
+        for i, f in enumerate(rec.frames()):
+            if args.frames is not None and i >= args.frames:
+                break
+            r = slam.process(f.stamp, f.rgb, f.depth)
+            if r.map_from_camera is not None and r.map_id == 0:
+                online_stamps.append(f.stamp)
+                online_poses.append(r.map_from_camera)
+            if r.map_from_camera is not None and f.depth is not None and not slam.map.anchored:
+                s = scene.process(f.depth, rec.intrinsics).structure
+                if s.floor_found:
+                    slam.anchor_to_floor(s.floor_plane, f.stamp)
+            if i % args.every == 0:
+                own, total = sampler.read()
+                lc = slam.loop_closer
+                backlog = lc._queue.qsize() if lc is not None else 0
+                print(f"frame {i} t {f.stamp - rec_start(rec, f.stamp):.1f} s: {len(slam.map)} keyframes, "
+                      f"loop-closer backlog {backlog}, resident {own:.0f} MB (+children {total:.0f} MB), "
+                      f"peaks {sampler.peak_own:.0f} / {sampler.peak_total:.0f} MB, {slam.counts}, "
+                      f"{time.monotonic() - start:.0f} s", flush=True)
+        walk = sampler.phase()
+        if args.online:
+            write_trajectory(args.online, np.array(online_stamps), np.array(online_poses).reshape(-1, 4, 4))
+        t0 = time.monotonic()
+        lc = slam.loop_closer
+        backlog = lc._queue.qsize() if lc is not None else 0
+        while lc is not None and lc.busy and (args.drain_limit is None or time.monotonic() - t0 < args.drain_limit):
+            time.sleep(0.5)
+        drained = lc is None or not lc.busy
+        drain = sampler.phase()
+        print(f"walk: peaks {walk[0]:.0f} / {walk[1]:.0f} MB (own / with the pose-graph process); loop-closer backlog "
+              f"{backlog} keyframes at the last frame, {'drained' if drained else 'NOT drained, still ' + str(lc._queue.qsize())}"
+              f" after {time.monotonic() - t0:.0f} s, peaks {drain[0]:.0f} / {drain[1]:.0f} MB", flush=True)
+        if args.map:
+            t0 = time.monotonic()
+            save_map(slam.map, args.map)          # SlamSystem.save would wait for the loop closer first
+            save = sampler.phase()
+            print(f"save: {time.monotonic() - t0:.1f} s, peaks {save[0]:.0f} / {save[1]:.0f} MB", flush=True)
+        if args.trajectory and drained:
+            write_trajectory(args.trajectory, *slam.trajectory())
+        lc = slam.loop_closer
+        print(f"done: {len(slam.map)} keyframes, {len(slam.map.edges)} edges "
+              f"({sum(e.kind == 'loop' for e in slam.map.edges)} loop), map {slam.map.nbytes / MB:.0f} MB in keyframes "
+              f"and place database; loop closer {lc.optimisations if lc else 0} optimisations, "
+              f"{(sum(lc.busy_ms) / 1e3) if lc else 0:.0f} s busy; {slam.counts}; "
+              f"{time.monotonic() - start:.0f} s", flush=True)
+    finally:
+        if not drained:
+            slam.loop_closer.error = RuntimeError("stopped")     # the thread skips the keyframes still waiting
+        slam.close()
+        sampler.stop()
+    return 0
+
+
+_FIRST: list[float] = []
+
+
+def rec_start(rec, stamp: float) -> float:
+    """The first frame's stamp [s] (seconds into the walk are printed)."""
+    if not _FIRST:
+        _FIRST.append(stamp)
+    return _FIRST[0]
+
+
+if __name__ == "__main__":
+    sys.exit(main())
