@@ -13,10 +13,13 @@ and publishes it latched (``/spv/sprites``, :mod:`raspv_spv.sprites_msg`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-import scipy.sparse as sp
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 MAX_ATLAS_SIDE = 4096           # texels; WebGL 2 guarantees at least 2048, every browser here offers 4096+
 
@@ -51,6 +54,8 @@ class SpriteAtlas:
                       max_side: int = MAX_ATLAS_SIDE) -> "SpriteAtlas":
         """The atlas of a sprite bank's matrices (:class:`raspv_spv.sprite_models.SpriteBank`, or a
         PhospheneSprites message's); :class:`AtlasTooLarge` when it does not fit ``max_side``."""
+        import scipy.sparse as sp     # here, not at the top: the headset bridge builds atlases from messages only
+
         rows, cols = -(-height // scale), -(-width // scale)
         parts = [_patches(sp.csc_matrix(coarse), cols, grid=0)]
         if fine is not None and fine.nnz:
