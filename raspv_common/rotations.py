@@ -1,4 +1,4 @@
-"""Rotations as plain numpy: quaternion (x, y, z, w) ↔ 3×3 matrix, slerp (no ROS imports)."""
+"""Rotations as plain numpy: quaternion (x, y, z, w) ↔ 3×3 matrix, slerp, the head's roll/pitch/yaw (no ROS imports)."""
 from __future__ import annotations
 
 import math
@@ -53,3 +53,22 @@ def slerp_quaternion(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     theta = math.acos(min(1.0, d))
     sin_theta = math.sin(theta)
     return (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / sin_theta
+
+
+def head_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    """Head orientation relative to the base from roll (about x), pitch (about y, positive looks
+    down) and yaw (about z, positive looks left), applied yaw·pitch·roll; radians."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy)
+
+
+def head_angles(q) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) [rad] of a head quaternion (inverse of :func:`head_quaternion`)."""
+    x, y, z, w = q
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw

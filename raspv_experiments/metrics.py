@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from raspv_sim.avatar import head_quaternion
+from raspv_common.rotations import head_quaternion
 from raspv_sim.experiment_log import read_events, read_trajectory, sim_time_at_start
 
 OUTCOMES = ("goal", "time_limit", "aborted")

@@ -47,7 +47,7 @@ from raspv_experiments.scripted_gaze import (GazeModelConfig, GazeScript, displa
                                              model_trace)
 from raspv_experiments.subject_params import PARAMS
 from raspv_experiments.trial_clock import TrialClock
-from raspv_sim.avatar import head_quaternion
+from raspv_common.rotations import head_quaternion
 
 
 def policy_config(p: dict, seed: int | None = None) -> PolicyConfig:

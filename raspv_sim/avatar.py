@@ -19,6 +19,7 @@ import numpy as np
 import pybullet
 
 from raspv_common.frames import LINK_FROM_OPTICAL
+from raspv_common.rotations import head_angles, head_quaternion  # noqa: F401  (re-exported)
 from raspv_sim.world_builder import BuiltWorld
 
 SUBSTEP = 0.05            # m, longest straight move checked at once
@@ -79,25 +80,6 @@ def quaternion_matrix(q) -> np.ndarray:
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
-def head_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    """Head orientation relative to the base from roll (about x), pitch (about y, positive looks
-    down) and yaw (about z, positive looks left), applied yaw·pitch·roll; radians."""
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy)
-
-
-def head_angles(q) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) [rad] of a head quaternion (inverse of :func:`head_quaternion`)."""
-    x, y, z, w = q
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return roll, pitch, yaw
 
 
 class Avatar:

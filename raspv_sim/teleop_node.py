@@ -21,7 +21,7 @@ from raspv_common import topics
 from raspv_common.frames import BASE_LINK
 from raspv_common.node import ConfigurationError, RaspvNode, run_node
 from raspv_common.qos import COMMAND_QOS
-from raspv_sim.avatar import head_quaternion
+from raspv_common.rotations import head_quaternion
 from raspv_sim.teleop_keys import HELP, KeyDecoder, TeleopConfig, TeleopKeys
 from raspv_sim.teleop_params import PARAMS
 
