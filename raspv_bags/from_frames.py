@@ -62,6 +62,13 @@ CAMERA_DISTORTION: dict[str, tuple[float, ...]] = {
     "tum-fr1": (0.2624, -0.9531, -0.0054, 0.0026, 1.1633),
     "tum-fr2": (0.2312, -0.7849, -0.0033, -0.0001, 0.9172),
 }
+# Colour cameras with a rolling shutter, first-to-last-row readout [s]: the Kinect v1 of TUM's
+# freiburg 1 and 2 sequences (estimated 20-30 ms from the roll residual of direct registrations
+# against motion capture on fr1/rpy, which follows the yaw rate; the middle taken).
+CAMERA_ROLLING_SHUTTER: dict[str, float] = {"tum-fr1": 0.025, "tum-fr2": 0.025}
+# A bag's metadata.yaml custom_data key holding that readout [s, as text]: what a recording carries
+# for the camera info ROS lacks (raspv_bags.camera_metadata)
+ROLLING_SHUTTER_KEY = "raspv.rolling_shutter_readout"
 
 
 class FramesError(ValueError):
@@ -431,11 +438,13 @@ class RgbdBagWriter:
     optionally the camera pose), written from arrays. Used by from-frames, tests and benchmarks."""
 
     def __init__(self, output: str | Path, storage: str = "mcap", with_pose: bool = False,
-                 frame_id: str = FRAME_ID, distortion: tuple[float, ...] = ()) -> None:
+                 frame_id: str = FRAME_ID, distortion: tuple[float, ...] = (), rolling_shutter_readout: float = 0.0) -> None:
         self.ser = _Serialiser()
         self.frame_id = frame_id
         self.distortion = tuple(distortion)        # lens distortion of the raw colour images (OpenCV k1 k2 p1 p2 [k3])
         self.writer = BagWriter(output, storage, flush_interval_s=None)
+        if rolling_shutter_readout > 0:            # [s] the colour camera's readout, in metadata.yaml's custom_data
+            self.writer.set_custom_data(ROLLING_SHUTTER_KEY, repr(float(rolling_shutter_readout)))
         self.writer.add_topic(T.COLOR, "sensor_msgs/msg/Image", [SENSOR])
         self.writer.add_topic(T.DEPTH, "sensor_msgs/msg/Image", [SENSOR])
         self.writer.add_topic(T.CAMERA_INFO, "sensor_msgs/msg/CameraInfo", [SENSOR])
@@ -470,10 +479,13 @@ class RgbdBagWriter:
 
 def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, output: Path,
                      storage: str = "mcap", progress: Callable[[int, int], None] | None = None,
-                     frame_id: str = FRAME_ID, distortion: tuple[float, ...] = ()) -> FromFramesReport:
+                     frame_id: str = FRAME_ID, distortion: tuple[float, ...] = (),
+                     rolling_shutter_readout: float = 0.0) -> FromFramesReport:
     """Write ``frames`` into the new bag ``output``. ``intrinsics``: fx, fy, cx, cy [px] (and
     optionally the width/height they were measured at); ``distortion``: the colour images' lens
-    distortion (OpenCV k1 k2 p1 p2 [k3]) for the camera info, none by default. Raises
+    distortion (OpenCV k1 k2 p1 p2 [k3]) for the camera info, none by default;
+    ``rolling_shutter_readout``: the colour camera's [s] (0: global shutter), kept in the bag's
+    metadata (:func:`raspv_bags.camera_metadata.recorded_rolling_shutter`). Raises
     :class:`FramesError` when no intrinsics are given or no pair is usable."""
     if not frames.pairs:
         raise FramesError("no frames to write")
@@ -487,7 +499,7 @@ def write_frames_bag(frames: FrameSet, intrinsics: dict[str, float] | None, outp
     cam: CameraIntrinsics | None = None
     resized_note = False
     out = RgbdBagWriter(output, storage, with_pose=any(p.pose is not None for p in frames.pairs), frame_id=frame_id,
-                        distortion=distortion)
+                        distortion=distortion, rolling_shutter_readout=rolling_shutter_readout)
     try:
         for n, pair in enumerate(frames.pairs):
             if progress is not None:

@@ -155,6 +155,11 @@ class BagWriter:
         self.counts[topic] = 0
         self.types[topic] = msgtype
 
+    def set_custom_data(self, key: str, value: str) -> None:
+        """A key/value pair of text in ``metadata.yaml``'s ``custom_data`` (rosbag2 metadata
+        version 6+), written at :meth:`close`."""
+        self._writer.set_custom_data(key, value)
+
     def write(self, topic: str, timestamp_ns: int, data: bytes | memoryview) -> None:
         """Append one serialised (CDR) message of a declared topic."""
         conn = self._connections.get(topic)

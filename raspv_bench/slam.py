@@ -52,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "frames folders (default: a folder's own intrinsics.yaml, as `raspv sim walk` writes, "
                         "else tum-fr1)")
     parser.add_argument("--frames", type=int, help="only the first N frames of each sequence")
+    parser.add_argument("--every", type=int, default=1, metavar="N",
+                        help="only every N-th frame (3: a 30 Hz sequence at the slam node's 10 Hz; default 1)")
     parser.add_argument("--split", action=argparse.BooleanOptionalAction, default=True,
                         help="also map the first half and localise the second (default on)")
 
@@ -169,7 +171,7 @@ def bench_sequence(path: Path, args) -> dict[str, float]:
     from raspv_slam.recordings import open_recording
 
     rec = open_recording(path, camera=_camera(path, args.camera))
-    frames = list(rec.frames(args.frames))
+    frames = list(rec.frames(args.frames))[::max(1, getattr(args, "every", 1))]
     gt = [(f.stamp, f.groundtruth) for f in frames if f.groundtruth is not None]
     if len(gt) < 3:
         print(f"{path}: no ground truth; skipped")
@@ -198,7 +200,8 @@ def bench_sequence(path: Path, args) -> dict[str, float]:
     _row("RGBDOdometry", e_odo, f"tracked {100 * o['tracked'] / max(1, o['frames']):5.1f} %", o["wall"], o["cpu"])
     print(f"  SLAM frames: {c['tracked']} tracked ({c['to_last_frame']} through the last frame), {c['predicted']} "
           f"predicted by the motion model, {c['relocalised']} relocalised, {c['lost']} lost, {c['loops']} with a "
-          f"loop correction, {c['new_maps']} new maps, {c['merges']} merged")
+          f"loop correction, {c['new_maps']} new maps, {c['merges']} merged; "
+          f"{c['rolling_shutter_second_pass']} registered again at their own rolling-shutter rate")
     ratios = {}
     if e_final and e_odo:
         ratios = {"odometry_ate": e_odo.ate_rmse / e_final.ate_rmse,

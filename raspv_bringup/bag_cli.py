@@ -111,6 +111,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     ff.add_argument("--distortion", type=float, nargs="+", metavar="K",
                     help="lens distortion of the colour images, plumb bob k1 k2 p1 p2 [k3] (OpenCV's), for the camera "
                          "info (default: the --camera preset's, tum-fr1/tum-fr2 TUM's published one; else none)")
+    ff.add_argument("--rolling-shutter", type=float, default=None, metavar="S",
+                    help="readout of the colour camera's rolling shutter, first to last row [s], kept in the bag's "
+                         "metadata for the slam node (default: the --camera preset's, 0.025 for tum-fr1/tum-fr2; "
+                         "else 0, a global shutter)")
     ff.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="storage format (default mcap)")
 
 
@@ -240,8 +244,8 @@ def _repair(args: argparse.Namespace) -> int:
 # -- from-frames --------------------------------------------------------------------------------
 
 def _from_frames(args: argparse.Namespace) -> int:
-    from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, FramesError, discover_frames,
-                                        load_intrinsics_file, write_frames_bag)
+    from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, CAMERA_ROLLING_SHUTTER, FramesError,
+                                        discover_frames, load_intrinsics_file, write_frames_bag)
     from raspv_common.intrinsics import OPENCV_DISTORTION_COUNTS
     from raspv_bags.writer import BagWriteError
 
@@ -279,7 +283,12 @@ def _from_frames(args: argparse.Namespace) -> int:
         if distortion and len(distortion) not in OPENCV_DISTORTION_COUNTS:
             raise FramesError(f"--distortion takes 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), "
                               f"got {len(distortion)}")
-        report = write_frames_bag(frames, intr, Path(args.output), args.storage, progress, distortion=distortion)
+        readout = CAMERA_ROLLING_SHUTTER.get(args.camera or "", 0.0) if args.rolling_shutter is None \
+            else args.rolling_shutter
+        if not 0 <= readout < 0.1:
+            raise FramesError(f"--rolling-shutter takes a readout in [0, 0.1) s, got {readout}")
+        report = write_frames_bag(frames, intr, Path(args.output), args.storage, progress, distortion=distortion,
+                                  rolling_shutter_readout=readout)
         if tty:
             print(file=sys.stderr)
     except (FramesError, BagWriteError) as exc:
@@ -290,6 +299,7 @@ def _from_frames(args: argparse.Namespace) -> int:
     print(f"{report.output}: {report.frames} frames {report.size[0]}x{report.size[1]}"
           f" (fx {cam.fx:.1f}, fy {cam.fy:.1f}, cx {cam.cx:.1f}, cy {cam.cy:.1f})"
           + (f", distortion {' '.join(f'{k:g}' for k in distortion)}" if distortion else "")
+          + (f", rolling shutter {readout * 1e3:g} ms" if readout else "")
           + (f", {report.with_pose} poses" if report.with_pose else "")
           + (f", {report.skipped} skipped" if report.skipped else ""))
     return 0

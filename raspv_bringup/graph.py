@@ -209,6 +209,7 @@ def graph_from_doc(doc: Any, path: str | Path, overrides: list[str] | None = Non
         node.params.update(builtin)
         node.params.update(good)
     _set_camera_source(nodes, sections, path, errors)
+    _set_rolling_shutter(nodes, sections)
     for gk in global_params:
         if gk not in GLOBAL_PARAMS and not any(gk in schema_for(n.kind) for n in nodes):
             errors.append(f"{path}: /**.ros__parameters.{gk}: no node in this graph has this parameter")
@@ -241,6 +242,23 @@ def _set_camera_source(nodes: list[NodeEntry], sections: dict[str, dict[str, Any
             errors.append(f"{path}: {node.name}.ros__parameters.camera_source: {given!r}, but the images come from "
                           f"{what}: {derived!r} (set by the launcher; leave it out)")
         node.params["camera_source"] = derived
+
+
+def _set_rolling_shutter(nodes: list[NodeEntry], sections: dict[str, dict[str, Any]]) -> None:
+    """Give every slam node that was not given ``rolling_shutter_readout`` the readout the replayed
+    bag carries (:func:`raspv_bags.camera_metadata.recorded_rolling_shutter`: ``raspv bag
+    from-frames --camera tum-fr1`` keeps its preset's), as ROS camera info cannot carry it."""
+    source = next((n for n in nodes if n.kind in IMAGE_SOURCES), None)
+    if source is None or source.kind != "replay" or not source.params.get("bag"):
+        return
+    from raspv_bags.camera_metadata import recorded_rolling_shutter
+
+    readout = recorded_rolling_shutter(str(source.params["bag"]))
+    if readout is None:
+        return
+    for node in nodes:
+        if node.kind == "slam" and "rolling_shutter_readout" not in sections.get(node.name, {}):
+            node.params["rolling_shutter_readout"] = readout
 
 
 def _prefixed(doc: dict, path: Path, overrides: list[str] | None, where: str, check_files: bool) -> Graph:

@@ -31,6 +31,9 @@ class Frame:
     small_depth: np.ndarray | None      # (h, w) float32 metres, NaN = no reading (None without depth)
     dense: DenseImage | None            # for dense registration (None without depth)
     sharpness: float = 0.0              # variance of the Laplacian of the small grey image (blur lowers it)
+    rate: np.ndarray | None = None      # the rotation rate (3,) in C [rad/s] it was corrected to mid-row time by
+    as_seen: tuple | None = field(default=None, repr=False)   # a rolling-shutter frame's (features, small
+                                        # colour, small depth) before any correction (FramePreparer.corrected)
     _probe: np.ndarray | None = field(default=None, repr=False)
 
     @property
@@ -85,19 +88,14 @@ class FramePreparer:
                 omega: np.ndarray | None = None) -> Frame:
         """``omega``: the camera's rotation rate (3,) in C [rad/s] the motion model predicts; with
         the config's ``rolling_shutter_readout`` the frame is corrected to its mid-row time
-        (:mod:`rolling_shutter`)."""
+        (:mod:`rolling_shutter`). A frame of a rolling-shutter camera keeps what it was made of,
+        so :meth:`corrected` can turn it by another rate later without extracting it again."""
         self.check(rgb, depth)
         if depth is not None:
             depth = np.asarray(depth, dtype=np.float32)
-        readout = self.config.rolling_shutter_readout
-        skew = omega is not None and readout > 0 and rgb is not None
         features = Features.empty()
         if rgb is not None:
             features = self.extractor.extract(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), depth)
-            if skew and len(features):
-                uv, points = correct_features(features.keypoints, features.points, features.keypoints[:, 1] + 0.5,
-                                              self.intrinsics, omega, readout)
-                features = Features(uv, features.descriptors, points, features.octaves)
         size = (self.small_intrinsics.width, self.small_intrinsics.height)
         small_rgb = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA) if rgb is not None else None
         small_depth = cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST) if depth is not None else None
@@ -106,13 +104,48 @@ class FramePreparer:
                 small_rgb = cv2.remap(small_rgb, *self._maps, cv2.INTER_LINEAR)
             if small_depth is not None:
                 small_depth = cv2.remap(small_depth, *self._maps, cv2.INTER_NEAREST, borderValue=float("nan"))
-        if skew:
-            small_rgb, small_depth = correct_images(small_rgb, small_depth, self.small_intrinsics, omega, readout)
+        if self.config.rolling_shutter_readout > 0 and rgb is not None:
+            as_seen = (features, small_rgb, small_depth)
+            if omega is not None:
+                return self._corrected(stamp, as_seen, omega)
+            return self._frame(stamp, features, small_rgb, small_depth, as_seen=as_seen)
+        return self._frame(stamp, features, small_rgb, small_depth)
+
+    def corrected(self, frame: Frame, omega: np.ndarray) -> Frame:
+        """``frame`` (made by :meth:`prepare` for a rolling-shutter camera without a rate) with its
+        keypoints and their 3-D points turned to mid-row time by the rotation rate ``omega`` (3,)
+        in C [rad/s] measured after its first registration; its small images stay as seen (with the
+        measured rate the re-sampled images made the 10 Hz tracking worse: fr1/rpy ATE 2.5 -> 3.9
+        cm, docs/slam.md). ValueError for a frame that kept nothing to correct."""
+        if frame.as_seen is None:
+            raise ValueError("this frame cannot be corrected (no rolling-shutter readout, or no colour)")
+        features = frame.as_seen[0]
+        if len(features):
+            uv, points = correct_features(features.keypoints, features.points, features.keypoints[:, 1] + 0.5,
+                                          self.intrinsics, omega, self.config.rolling_shutter_readout)
+            features = Features(uv, features.descriptors, points, features.octaves)
+        return Frame(frame.stamp, features, frame.small_rgb, frame.small_depth, frame.dense, frame.sharpness,
+                     rate=np.asarray(omega, np.float64), as_seen=frame.as_seen)
+
+    def _corrected(self, stamp: float, as_seen: tuple, omega: np.ndarray) -> Frame:
+        features, small_rgb, small_depth = as_seen
+        readout = self.config.rolling_shutter_readout
+        if len(features):
+            uv, points = correct_features(features.keypoints, features.points, features.keypoints[:, 1] + 0.5,
+                                          self.intrinsics, omega, readout)
+            features = Features(uv, features.descriptors, points, features.octaves)
+        small_rgb, small_depth = correct_images(small_rgb, small_depth, self.small_intrinsics, omega, readout)
+        return self._frame(stamp, features, small_rgb, small_depth, as_seen=as_seen,
+                           rate=np.asarray(omega, np.float64))
+
+    def _frame(self, stamp: float, features: Features, small_rgb: np.ndarray | None,
+               small_depth: np.ndarray | None, as_seen: tuple | None = None,
+               rate: np.ndarray | None = None) -> Frame:
         dense = self.dense_image(small_rgb, small_depth) if small_depth is not None else None
         sharpness = 0.0
         if small_rgb is not None:
             sharpness = float(cv2.Laplacian(cv2.cvtColor(small_rgb, cv2.COLOR_RGB2GRAY), cv2.CV_32F).var())
-        return Frame(stamp, features, small_rgb, small_depth, dense, sharpness)
+        return Frame(stamp, features, small_rgb, small_depth, dense, sharpness, rate=rate, as_seen=as_seen)
 
     def keyframe_frame(self, kf) -> Frame:
         """A keyframe as a :class:`Frame` to register against (its images decoded)."""

@@ -12,18 +12,16 @@ from typing import Iterator
 
 import numpy as np
 
-from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, FramesError, discover_frames,
-                                    intrinsics_for, load_intrinsics_file, read_depth)
+from raspv_bags.camera_metadata import recorded_rolling_shutter
+from raspv_bags.from_frames import (CAMERA_DISTORTION, CAMERA_PRESETS, CAMERA_ROLLING_SHUTTER, FramesError,
+                                    discover_frames, intrinsics_for, load_intrinsics_file, read_depth)
 from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.rgbd_files import RGBDFormatError, read_color
 
 INTRINSICS_FILE = "intrinsics.yaml"      # a frames folder's own intrinsics (fx, fy, cx, cy [, width, height])
 
 
-# Colour cameras with a rolling shutter, first-to-last-row readout [s]: the Kinect v1 of TUM's
-# freiburg 1 and 2 sequences (estimated 20-30 ms from the roll residual of direct registrations
-# against motion capture on fr1/rpy, which follows the yaw rate; the middle taken).
-ROLLING_SHUTTER_READOUT: dict[str, float] = {"tum-fr1": 0.025, "tum-fr2": 0.025}
+ROLLING_SHUTTER_READOUT = CAMERA_ROLLING_SHUTTER      # presets' colour readout [s] (raspv_bags.from_frames)
 
 
 class RecordingError(ValueError):
@@ -64,9 +62,13 @@ def open_recording(path: str | Path, camera: str | None = None, intrinsics: dict
     """Open a bag (a folder with ``metadata.yaml``, an ``.mcap``/``.db3``) or a frames folder.
     ``camera``: a preset name (``tum-fr1`` …, also sets TUM's distortion and the Kinect's
     rolling-shutter readout); ``intrinsics``: fx, fy, cx, cy [px] overriding the bag's camera
-    info; ``rolling_shutter``: readout [s] overriding the preset's."""
+    info; ``rolling_shutter``: readout [s] overriding the preset's, or the one a bag carries
+    (``raspv bag from-frames`` keeps its preset's in the bag's metadata)."""
     rec = _open_recording(path, camera, intrinsics, distortion)
-    rec.rolling_shutter = ROLLING_SHUTTER_READOUT.get(rec.camera or "", 0.0) if rolling_shutter is None else rolling_shutter
+    if rolling_shutter is None:
+        carried = recorded_rolling_shutter(rec.path) if rec.kind == "bag" and rec.camera is None else None
+        rolling_shutter = carried if carried is not None else ROLLING_SHUTTER_READOUT.get(rec.camera or "", 0.0)
+    rec.rolling_shutter = rolling_shutter
     return rec
 
 

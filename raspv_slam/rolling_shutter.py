@@ -9,6 +9,14 @@ hand-held walking speed translation moves rays by millimetres over a readout). K
 their 3-D points are turned exactly; the small colour and depth images are re-sampled (row of
 the output taken for the row of the source, first order).
 
+Where the rate comes from (:class:`raspv_slam.slam_system.SlamSystem`): frames at most
+``MAX_PREDICTION_INTERVAL_S`` apart (a 30 Hz camera) are corrected before tracking by the motion
+model's rate (the last interval's); farther apart (the node's 10 Hz) that rate lags, so the frame
+is registered as it is, its own rate is measured from that pose and the two before
+(:func:`rotation_rate`: a second-order backward difference, the rate *at* this frame), and its
+keypoints are corrected (its images left as seen) and it is registered again when the skew that
+rate makes (:func:`skew_px`) is larger than a keypoint's localisation noise.
+
 Frames: C the camera optical frame (x right, y down, z forward); ω in C [rad/s]; readout [s].
 """
 from __future__ import annotations
@@ -25,6 +33,38 @@ from raspv_common.intrinsics import CameraIntrinsics
 def _rotations(theta: np.ndarray) -> np.ndarray:
     """Rotation matrices (N, 3, 3) of rotation vectors (N, 3)."""
     return Rotation.from_rotvec(np.asarray(theta, np.float64).reshape(-1, 3)).as_matrix()
+
+
+def rotation_rate(stamps, rotations) -> np.ndarray:
+    """The rotation rate ω (3,) [rad/s] in the last camera's frame C_k at the last stamp, from the
+    last two or three orientations ``rotations`` (W ← C, (3, 3) each) at ``stamps`` [s, increasing].
+    Two: the last interval's mean rate (first order; it describes the interval's middle). Three:
+    the two intervals' mean rates extrapolated linearly from their middles to the last stamp — the
+    second-order backward difference (3ω₁ − ω₀)/2 for equal intervals."""
+    if len(stamps) != len(rotations) or len(stamps) not in (2, 3):
+        raise ValueError(f"need 2 or 3 stamped orientations, got {len(stamps)} and {len(rotations)}")
+    R = [np.asarray(r, np.float64) for r in rotations]
+    h1 = stamps[-1] - stamps[-2]
+    if not h1 > 0:
+        raise ValueError("stamps must increase")
+    step = R[-2].T @ R[-1]                                                # C_{k-1} ← C_k
+    last = Rotation.from_matrix(step).as_rotvec() / h1                    # axis: same in C_{k-1} and C_k
+    if len(stamps) == 2:
+        return last
+    h0 = stamps[-2] - stamps[-3]
+    if not h0 > 0:
+        raise ValueError("stamps must increase")
+    before = step.T @ (Rotation.from_matrix(R[-3].T @ R[-2]).as_rotvec() / h0)   # into C_k
+    return last + (last - before) * h1 / (h1 + h0)
+
+
+def skew_px(omega: np.ndarray, readout: float, K: CameraIntrinsics) -> float:
+    """The largest shift [px] of a pixel between its row's exposure and the mid-row time for a
+    camera turning at ``omega`` (3,) [rad/s] in C: half the readout times the image-plane speed
+    (pan and tilt at the focal length, roll at the image's half-diagonal), first order."""
+    w = np.asarray(omega, np.float64)
+    return 0.5 * readout * (max(K.fx, K.fy) * float(np.hypot(w[0], w[1]))
+                            + float(np.hypot(K.width, K.height)) / 2 * abs(float(w[2])))
 
 
 def row_rotations(rows: np.ndarray, height: int, omega: np.ndarray, readout: float) -> np.ndarray:
@@ -56,12 +96,15 @@ def _ray_grid(K: CameraIntrinsics) -> np.ndarray:
 def correct_images(rgb: np.ndarray | None, depth: np.ndarray | None, K: CameraIntrinsics, omega: np.ndarray,
                    readout: float) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The small colour and depth images (intrinsics ``K``) re-sampled as the mid-frame camera
-    would see them (depth values kept: a turn of a degree changes them by far less than their noise)."""
+    would see them. Depth values are turned too: a point seen at depth d along the row camera's ray
+    q (R_vᵀ·r for the mid-frame ray r, z = 1) is at z = d / q_z in the mid-frame camera (a degree of
+    turn moves a point 1.5 m to the side by 2.6 cm in depth, several times the Kinect's noise at 2 m)."""
     R = row_rotations(np.arange(K.height) + 0.5, K.height, omega, readout).astype(np.float32)   # per output row
     src = np.matmul(_ray_grid(K), R)                                  # rows of rays times R_v: R_vᵀ·ray, mid → row
     inv_z = 1.0 / src[..., 2]
     mx = (K.fx * src[..., 0] * inv_z + K.cx).astype(np.float32)
     my = (K.fy * src[..., 1] * inv_z + K.cy).astype(np.float32)
     out_rgb = None if rgb is None else cv2.remap(rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    out_depth = None if depth is None else cv2.remap(depth, mx, my, cv2.INTER_NEAREST, borderValue=float("nan"))
+    out_depth = None if depth is None else \
+        cv2.remap(depth, mx, my, cv2.INTER_NEAREST, borderValue=float("nan")) * inv_z
     return out_rgb, out_depth

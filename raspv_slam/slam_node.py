@@ -181,8 +181,10 @@ class SlamNode(RaspvNode):
             self.warn_throttled("no-info", f"waiting for {topics.CAMERA_INFO}")
             return False
         # the camera's lens distortion is the live camera's: a loaded map's keypoints are stored undistorted
+        # so is its rolling shutter (a map's keyframes are stored corrected to mid-row time)
         run_settings = {"threads": self.params["threads"], "new_map_after": self.params["new_map_after"],
-                        "distortion": self.distortion}
+                        "distortion": self.distortion,
+                        "rolling_shutter_readout": float(self.params["rolling_shutter_readout"])}
         try:
             if self.map_path is not None:               # the map's settings, this node's run settings
                 localising = self.params["mode"] == "localisation"

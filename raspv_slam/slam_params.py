@@ -23,6 +23,11 @@ PARAMS = [
     Param("flow_between", True, "give the frames max_rate leaves out a pose too: sparse optical flow from the last "
           "frame the core tracked, then PnP (~3 ms a frame), so a display between the core's frames does not guess "
           "the camera's motion (false: those frames get no pose; the spv node predicts them at constant velocity)"),
+    Param("rolling_shutter_readout", 0.0, "the colour camera's rolling shutter: first to last row read out in this "
+          "long (0: a global shutter). Fast turns skew such an image; frames are tracked at their mid-row time. "
+          "ROS camera info has no field for it: a replay of a bag that carries one (raspv bag from-frames "
+          "--camera tum-fr1|tum-fr2: 0.025) gets it from the launcher unless it is set here",
+          minimum=0.0, maximum=0.09, unit="s", dynamic=False),
     Param("threads", 1, "threads of the SLAM core's OpenCV and Open3D work", minimum=1, maximum=64, dynamic=False),
     Param("gravity_from_floor", True, "align a new map with the floor from /scene/structure (needs a scene node)",
           dynamic=False),

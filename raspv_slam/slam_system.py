@@ -36,6 +36,7 @@ from raspv_slam.frame_registration import FrameRegistrar
 from raspv_slam.keyframe import Keyframe, encode_images
 from raspv_slam.loop_closing import LoopCloser
 from raspv_slam.results import MapSnapshot, SlamResult, TrackingState
+from raspv_slam.rolling_shutter import rotation_rate, skew_px
 from raspv_slam.se3 import inverse, motion_size
 from raspv_slam.slam_map import SlamMap
 
@@ -44,8 +45,13 @@ TRANSIENT_KEYFRAMES = 30    # keyframes kept in localisation mode outside the ma
 STAMP_TOLERANCE_S = 1e-3
 # the rolling-shutter correction predicts this frame's rotation rate from the last interval: over
 # longer intervals a hand-held camera's rate changes too much (fr1/rpy at 15 Hz, 30 frames: ATE
-# 2.8 -> 4.9 cm with the correction; at 30 Hz the whole sequence 2.54 -> 1.92 cm), so it is left out
+# 2.8 -> 4.9 cm with the correction; at 30 Hz the whole sequence 2.54 -> 1.92 cm), so such a frame
+# is registered as it is, then corrected by its own measured rate and registered again
+# (_measured_rate, _corrected_registration)
 MAX_RATE_INTERVAL_S = 0.05
+# a keypoint's localisation noise [px] as a share of the PnP inlier threshold (χ²₂ 95 %: 2.45 σ):
+# a frame whose rolling-shutter skew is below it is not registered a second time
+INLIER_THRESHOLD_SIGMAS = 2.45
 
 
 class SlamSystem:
@@ -80,10 +86,12 @@ class SlamSystem:
         self.lost_since: float | None = None         # stamp at which tracking was lost [s]
         self._history: OrderedDict[float, tuple[int, np.ndarray]] = OrderedDict()
         self._last_tracked: tuple[Frame, int, np.ndarray] | None = None
+        self._tracked_rotations: deque[tuple[float, np.ndarray]] = deque(maxlen=2)   # (stamp, O ← C rotation)
+                                                     # of the last consecutive tracked frames: the measured rate
         self._recent: deque[tuple[Frame, int, np.ndarray]] = deque(maxlen=config.keyframe_candidates)
         self._trajectory: list[tuple[float, int, np.ndarray]] = []     # every placed frame: stamp, ref, ref ← C
         self.counts = {"frames": 0, "tracked": 0, "predicted": 0, "lost": 0, "relocalised": 0, "loops": 0,
-                       "to_last_frame": 0,
+                       "to_last_frame": 0, "rolling_shutter_second_pass": 0,
                        "new_maps": 0, "merges": 0}
 
     # -- per frame ----------------------------------------------------------------------------
@@ -145,6 +153,7 @@ class SlamSystem:
             return TrackingState.INITIALISING
         self.ref = self._add_keyframe(frame, np.eye(4), None, None)
         self.ref_from_camera = np.eye(4)
+        self._tracked_rotations.append((frame.stamp, self.odom_from_camera[:3, :3].copy()))
         self.counts["tracked"] += 1
         return TrackingState.TRACKING
 
@@ -152,23 +161,16 @@ class SlamSystem:
         c = self.config
         ref_from_previous = self.ref_from_camera
         predicted = ref_from_previous @ self.velocity
-        reg = self.registrar.register(frame, self._keyframe(self.ref), predicted_target_from_source=predicted)
-        ref_from_camera = reg.target_from_source if reg.ok else None
-        if ref_from_camera is None and self._last_tracked is not None:
-            # fast motion took the view too far from the keyframe: register to the last tracked frame
-            last, last_ref, last_ref_from_last = self._last_tracked
-            ref_from_last = self.map.relative(self.ref, last_ref) @ last_ref_from_last
-            reg = self.registrar.register(frame, last, predicted_target_from_source=inverse(ref_from_last) @ predicted)
-            if reg.ok:
-                ref_from_camera = ref_from_last @ reg.target_from_source
-                self.counts["to_last_frame"] += 1
+        ref_from_camera, reg, to_last = self._register_to_reference(frame, predicted)
+        if ref_from_camera is not None and not self._plausible(ref_from_previous, ref_from_camera):
+            ref_from_camera = None
         if ref_from_camera is not None:
-            delta = inverse(ref_from_previous) @ ref_from_camera
-            dt, dr = motion_size(delta)
-            if dt > c.max_frame_translation or dr > c.max_frame_rotation_deg:
-                ref_from_camera = None
+            second = self._corrected_registration(frame, ref_from_previous, ref_from_camera)
+            if second is not None:
+                frame, ref_from_camera, reg, to_last = second
         if ref_from_camera is None:
             self.failures += 1
+            self._tracked_rotations.clear()
             if self.failures >= c.lost_after:
                 self.counts["lost"] += 1
                 self.velocity = np.eye(4)
@@ -177,16 +179,64 @@ class SlamSystem:
             self.odom_from_camera = self.odom_from_camera @ self.velocity
             self.counts["predicted"] += 1
             return TrackingState.TRACKING, 0
+        delta = inverse(ref_from_previous) @ ref_from_camera
+        self.counts["to_last_frame"] += to_last
         self.failures = 0
         self.velocity = delta
         self._velocity_dt = frame.stamp - self._previous_stamp if self._previous_stamp is not None else 0.0
         self.odom_from_camera = self.odom_from_camera @ delta
+        self._tracked_rotations.append((frame.stamp, self.odom_from_camera[:3, :3].copy()))
         self.ref_from_camera = ref_from_camera
         self.counts["tracked"] += 1
         self._recent.append((frame, self.ref, self.ref_from_camera))
         self._last_tracked = self._recent[-1]
         self._maybe_new_keyframe(frame)
         return TrackingState.TRACKING, reg.inliers
+
+    def _register_to_reference(self, frame: Frame, predicted: np.ndarray):
+        """(ref ← camera or None, the registration, 1 if it was to the last tracked frame else 0)."""
+        reg = self.registrar.register(frame, self._keyframe(self.ref), predicted_target_from_source=predicted)
+        if reg.ok:
+            return reg.target_from_source, reg, 0
+        if self._last_tracked is not None:
+            # fast motion took the view too far from the keyframe: register to the last tracked frame
+            last, last_ref, last_ref_from_last = self._last_tracked
+            ref_from_last = self.map.relative(self.ref, last_ref) @ last_ref_from_last
+            reg = self.registrar.register(frame, last, predicted_target_from_source=inverse(ref_from_last) @ predicted)
+            if reg.ok:
+                return ref_from_last @ reg.target_from_source, reg, 1
+        return None, reg, 0
+
+    def _plausible(self, ref_from_previous: np.ndarray, ref_from_camera: np.ndarray) -> bool:
+        dt, dr = motion_size(inverse(ref_from_previous) @ ref_from_camera)
+        return dt <= self.config.max_frame_translation and dr <= self.config.max_frame_rotation_deg
+
+    def _measured_rate(self, stamp: float, odom_from_camera: np.ndarray) -> np.ndarray | None:
+        """This frame's rotation rate (3,) in C [rad/s] from its pose and the last tracked frames'
+        (:func:`rotation_rate`), None without a tracked frame just before it."""
+        if not self._tracked_rotations or not stamp > self._tracked_rotations[-1][0]:
+            return None
+        stamps = [t for t, _ in self._tracked_rotations] + [stamp]
+        return rotation_rate(stamps, [R for _, R in self._tracked_rotations] + [odom_from_camera[:3, :3]])
+
+    def _corrected_registration(self, frame: Frame, ref_from_previous: np.ndarray, ref_from_camera: np.ndarray):
+        """A rolling-shutter frame registered as it was seen (no rate predicted for it: frames too far
+        apart), corrected by the rate its pose and the last two measure and registered again from
+        that pose: (corrected frame, ref ← camera, registration, to last frame), or None when no
+        second pass is needed (a skew below a keypoint's noise) or it failed (the first pass stands)."""
+        c = self.config
+        if c.rolling_shutter_readout <= 0 or frame.rate is not None or frame.as_seen is None:
+            return None
+        omega = self._measured_rate(frame.stamp, self.odom_from_camera @ inverse(ref_from_previous) @ ref_from_camera)
+        if omega is None or skew_px(omega, c.rolling_shutter_readout, self.intrinsics) \
+                <= c.reprojection_px / INLIER_THRESHOLD_SIGMAS:
+            return None
+        corrected = self.preparer.corrected(frame, omega)
+        again, reg, to_last = self._register_to_reference(corrected, ref_from_camera)
+        if again is None or not self._plausible(ref_from_previous, again):
+            return None
+        self.counts["rolling_shutter_second_pass"] += 1
+        return corrected, again, reg, to_last
 
     def _maybe_new_keyframe(self, frame: Frame) -> None:
         c = self.config
@@ -244,6 +294,7 @@ class SlamSystem:
             return (TrackingState.INITIALISING if self.ref is None else TrackingState.LOST), 0
         self.ref, self.ref_from_camera = found[0], found[1].target_from_source
         self.velocity = np.eye(4)
+        self._tracked_rotations.clear()
         self.failures = 0
         self.counts["relocalised"] += 1
         return TrackingState.RELOCALISED, found[1].inliers
@@ -270,6 +321,7 @@ class SlamSystem:
                                       segment=segment)
         self.ref_from_camera = np.eye(4)
         self.velocity = np.eye(4)
+        self._tracked_rotations.clear()
         self.failures = 0
         self._last_tracked = None
         self._recent.clear()

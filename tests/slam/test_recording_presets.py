@@ -49,3 +49,35 @@ def test_bench_slam_reads_an_unnamed_tum_folder_as_tum_fr1(tmp_path):
     assert _camera(folder, None) == "tum-fr1"
     rec = open_recording(folder, camera=_camera(folder, None))
     assert rec.rolling_shutter == pytest.approx(ROLLING_SHUTTER_READOUT["tum-fr1"])
+
+
+def test_a_bag_from_a_kinect_preset_carries_its_readout_to_the_replays_slam_node(tmp_path):
+    """ROS camera info has no rolling-shutter field: `raspv bag from-frames --camera tum-fr1` keeps
+    the preset's readout in the bag's metadata, `raspv slam` reads it from the bag, and the
+    launcher gives it to config/replay.yaml's slam node unless the graph sets one; a bag of a
+    rectified global-shutter preset (tum-fr3) carries none."""
+    from raspv_bags.camera_metadata import recorded_rolling_shutter
+    from raspv_bringup.cli import main as raspv
+    from raspv_bringup.graph import load_graph
+
+    folder = _tum_folder(tmp_path / "rgbd_dataset_freiburg1_desk")
+    kinect, other = tmp_path / "fr1_bag", tmp_path / "fr3_bag"
+    assert raspv(["bag", "from-frames", str(folder), "-o", str(kinect), "--camera", "tum-fr1"]) == 0
+    assert raspv(["bag", "from-frames", str(folder), "-o", str(other), "--camera", "tum-fr3"]) == 0
+    assert recorded_rolling_shutter(kinect) == pytest.approx(ROLLING_SHUTTER_READOUT["tum-fr1"])
+    assert recorded_rolling_shutter(other) is None
+    assert open_recording(kinect).rolling_shutter == pytest.approx(ROLLING_SHUTTER_READOUT["tum-fr1"])
+    assert open_recording(other).rolling_shutter == 0.0
+
+    def slam_readout(bag, *overrides):
+        graph = load_graph("config/replay.yaml", [f"replay.bag:={bag}", *overrides], check_files=False)
+        return next(n for n in graph.nodes if n.kind == "slam").params.get("rolling_shutter_readout", 0.0)
+
+    assert slam_readout(kinect) == pytest.approx(ROLLING_SHUTTER_READOUT["tum-fr1"])
+    assert slam_readout(kinect, "slam.rolling_shutter_readout:=0.0") == 0.0      # the graph's own wins
+    assert slam_readout(other) == 0.0
+    assert raspv(["bag", "from-frames", str(folder), "-o", str(tmp_path / "given"), "--camera", "tum-fr3",
+                  "--rolling-shutter", "0.03"]) == 0
+    assert slam_readout(tmp_path / "given") == pytest.approx(0.03)
+    assert raspv(["bag", "from-frames", str(folder), "-o", str(tmp_path / "bad"), "--camera", "tum-fr1",
+                  "--rolling-shutter", "0.5"]) == 1

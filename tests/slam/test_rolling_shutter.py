@@ -1,11 +1,13 @@
 """Rolling-shutter correction: keypoints a turning rolling-shutter camera saw (each row exposed
 later than the one above) are moved to where the mid-frame camera sees them — within a tenth of
 a pixel at 100°/s and a 30-ms readout, where they were pixels off — and a still camera's images
-are left as they are."""
+are left as they are; a frame's own rotation rate comes from its pose and the two before."""
 import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
 
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_slam.rolling_shutter import _rotations, correct_features, correct_images
+from raspv_slam.rolling_shutter import _rotations, correct_features, correct_images, rotation_rate, skew_px
 
 K = CameraIntrinsics(640, 480, 517.3, 516.5, 318.6, 255.3)
 READOUT = 0.03
@@ -46,3 +48,40 @@ def test_a_still_camera_is_left_as_it_is():
     out_rgb, out_depth = correct_images(rgb, depth, K_small, np.zeros(3), READOUT)
     np.testing.assert_array_equal(out_rgb, rgb)
     np.testing.assert_array_equal(out_depth, depth)
+
+
+def _about(axis, angle):
+    return Rotation.from_rotvec(np.asarray(axis, float) / np.linalg.norm(axis) * angle).as_matrix()
+
+
+def test_the_rate_at_a_frame_from_its_pose_and_the_two_before():
+    """A turn speeding up (angle a·t + b·t²/2 about a tilted axis, intervals of 100 and 120 ms):
+    the second-order backward difference gives the rate at the last frame, where the last
+    interval's mean rate describes its middle and lags by b·h/2."""
+    axis, a, b = np.array([0.2, 1.0, 0.1]), 0.5, 8.0                 # rad/s, rad/s²
+    stamps = [0.0, 0.12, 0.22]
+    R0 = _about([1.0, 0.0, 0.3], 0.4)                               # any start
+    rotations = [R0 @ _about(axis, a * t + b * t * t / 2) for t in stamps]
+    truth = axis / np.linalg.norm(axis) * (a + b * stamps[-1])
+    np.testing.assert_allclose(rotation_rate(stamps, rotations), truth, atol=1e-9)
+    first_order = rotation_rate(stamps[1:], rotations[1:])
+    np.testing.assert_allclose(np.linalg.norm(truth - first_order), b * 0.1 / 2, rtol=1e-6)
+
+
+def test_the_rate_is_in_the_last_cameras_frame():
+    """A camera turning at a constant rate about its own optical axis while it also pans: the rate
+    comes out in the last camera's axes whatever the earlier ones were."""
+    omega = np.radians([10.0, 80.0, -25.0])
+    stamps = [1.0, 1.1, 1.2]
+    rotations = [_rotations((t - 1.0) * omega)[0] for t in stamps]   # body rate constant: exp(ω t)
+    np.testing.assert_allclose(rotation_rate(stamps, rotations), omega, atol=1e-9)
+    with pytest.raises(ValueError, match="stamps must increase"):
+        rotation_rate([1.0, 1.0], rotations[:2])
+
+
+def test_the_skew_is_half_the_readout_times_the_image_speed():
+    """At 100°/s of pan a 30-ms readout moves the top and bottom rows by f·ω·τ/2 ≈ 13.5 px from
+    the middle; a still camera has none."""
+    assert skew_px(np.radians([0.0, 100.0, 0.0]), READOUT, K) == pytest.approx(517.3 * np.radians(100) * 0.015)
+    assert skew_px(np.radians([0.0, 0.0, 100.0]), READOUT, K) == pytest.approx(400.0 * np.radians(100) * 0.015)
+    assert skew_px(np.zeros(3), READOUT, K) == 0.0
