@@ -85,3 +85,21 @@ def test_the_skew_is_half_the_readout_times_the_image_speed():
     assert skew_px(np.radians([0.0, 100.0, 0.0]), READOUT, K) == pytest.approx(517.3 * np.radians(100) * 0.015)
     assert skew_px(np.radians([0.0, 0.0, 100.0]), READOUT, K) == pytest.approx(400.0 * np.radians(100) * 0.015)
     assert skew_px(np.zeros(3), READOUT, K) == 0.0
+
+
+def test_a_wall_seen_while_turning_keeps_its_depth_in_the_mid_frame_camera():
+    """A wall 2 m ahead of the mid-frame camera, seen by a rolling shutter panning at 100°/s: each
+    row's camera is turned, so its depth readings slope across the image (by ~3 cm at the edges);
+    re-sampled to the mid-frame camera the depth is the wall's 2 m again (the depth values turned
+    with their rays, not only moved)."""
+    K_small = K.scaled(320, 240)
+    omega = np.radians([0.0, 100.0, 0.0])
+    v, u = np.mgrid[0:K_small.height, 0:K_small.width].astype(np.float64)
+    rays = K_small.rays(u.ravel(), v.ravel())                                   # row camera, z = 1
+    R = _rotations(((v.ravel() + 0.5) / K_small.height - 0.5)[:, None] * READOUT * omega[None, :])   # mid ← row
+    depth = (2.0 / np.einsum("nij,nj->ni", R, rays)[:, 2]).reshape(v.shape).astype(np.float32)
+    assert np.abs(depth - 2.0).max() > 0.02
+    _, out = correct_images(None, depth, K_small, omega, READOUT)
+    inside = np.isfinite(out)
+    assert inside.mean() > 0.9
+    np.testing.assert_allclose(out[inside], 2.0, atol=2e-3)
