@@ -50,6 +50,31 @@ def _offsets(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([[0], np.cumsum(sizes)]), sizes
 
 
+class _Parts:
+    """An array to write as the concatenation of ``parts`` along their first axis (each
+    (n, *trailing) of ``dtype``), without making the concatenation in memory."""
+
+    def __init__(self, parts: list[np.ndarray], trailing: tuple[int, ...], dtype) -> None:
+        self.parts, self.trailing, self.dtype = parts, tuple(trailing), np.dtype(dtype)
+
+
+def _write_npz(path: Path, arrays: dict) -> None:
+    """What ``np.savez`` writes (uncompressed ``.npy`` entries, no pickles, read by ``np.load``),
+    with :class:`_Parts` entries written part by part: a map's keyframe images and features
+    (hundreds of MB after a 10-minute walk) are never copied into one array."""
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for name, value in arrays.items():
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as f:
+                if isinstance(value, _Parts):
+                    rows = sum(len(p) for p in value.parts)
+                    np.lib.format.write_array_header_1_0(f, {"descr": np.lib.format.dtype_to_descr(value.dtype),
+                                                             "fortran_order": False, "shape": (rows,) + value.trailing})
+                    for p in value.parts:
+                        f.write(np.ascontiguousarray(p, dtype=value.dtype).reshape((-1,) + value.trailing).tobytes())
+                else:
+                    np.lib.format.write_array(f, np.asanyarray(value), allow_pickle=False)
+
+
 def save_map(slam_map: SlamMap, path: str | Path) -> Path:
     """Write ``slam_map`` into the folder ``path`` (a name goes into the maps directory)."""
     from raspv_slam.floor_occupancy import floor_occupancy
@@ -80,18 +105,18 @@ def save_map(slam_map: SlamMap, path: str | Path) -> Path:
         if kf.id in row and hist.ndim == 2 and hist.shape[0] > row[kf.id]:
             words_per_kf[i] = hist[row[kf.id]]
             indexed[i] = True
-    cat = lambda xs, shape, dtype: np.concatenate(xs).astype(dtype) if xs else np.zeros(shape, dtype)  # noqa: E731
-    np.savez(tmp / "keyframes.npz", ids=ids, stamps=np.array([kf.stamp for kf in keyframes], dtype=np.float64),
-             poses=np.array([poses[kf.id] for kf in keyframes], dtype=np.float64).reshape(-1, 4, 4),
-             parents=np.array([parents.get(kf.id, -1) for kf in keyframes], dtype=np.int64),
-             segments=np.array([segments.get(kf.id, 0) for kf in keyframes], dtype=np.int64),
-             feature_offsets=feature_offsets, keypoints=cat([f.keypoints for f in feats], (0, 2), np.float32),
-             descriptors=cat([f.descriptors for f in feats], (0, 32), np.uint8),
-             points=cat([f.points for f in feats], (0, 3), np.float32),
-             octaves=cat([f.octaves for f in feats], (0,), np.int8),
-             color_offsets=color_offsets, color=cat([kf.color_jpeg for kf in keyframes], (0,), np.uint8),
-             depth_offsets=depth_offsets, depth=cat([kf.depth_png for kf in keyframes], (0,), np.uint8),
-             words=words_per_kf, indexed=indexed)
+    _write_npz(tmp / "keyframes.npz", dict(
+        ids=ids, stamps=np.array([kf.stamp for kf in keyframes], dtype=np.float64),
+        poses=np.array([poses[kf.id] for kf in keyframes], dtype=np.float64).reshape(-1, 4, 4),
+        parents=np.array([parents.get(kf.id, -1) for kf in keyframes], dtype=np.int64),
+        segments=np.array([segments.get(kf.id, 0) for kf in keyframes], dtype=np.int64),
+        feature_offsets=feature_offsets, keypoints=_Parts([f.keypoints for f in feats], (2,), np.float32),
+        descriptors=_Parts([f.descriptors for f in feats], (32,), np.uint8),
+        points=_Parts([f.points for f in feats], (3,), np.float32),
+        octaves=_Parts([f.octaves for f in feats], (), np.int8),
+        color_offsets=color_offsets, color=_Parts([kf.color_jpeg for kf in keyframes], (), np.uint8),
+        depth_offsets=depth_offsets, depth=_Parts([kf.depth_png for kf in keyframes], (), np.uint8),
+        words=words_per_kf, indexed=indexed))
     np.savez(tmp / "pose_graph.npz", a=np.array([e.a for e in edges], dtype=np.int64),
              b=np.array([e.b for e in edges], dtype=np.int64),
              a_from_b=np.array([e.a_from_b for e in edges], dtype=np.float64).reshape(-1, 4, 4),

@@ -21,6 +21,7 @@ dropped (nothing else in the core stops a backlog).
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import threading
 import time
@@ -73,7 +74,7 @@ class MemorySampler:
         self._thread.join()
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("recording", help="a TUM-layout folder (raspv sim walk) or a bag")
     parser.add_argument("--map", help="save the map here at the end (a name or a folder)")
@@ -82,45 +83,59 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--online", help="write the poses as tracking gave them here (TUM format)")
     parser.add_argument("--drain-limit", type=float, help="wait at most this long [s] for the loop closer at the end")
     parser.add_argument("--frames", type=int, help="only the first N frames")
-    args = parser.parse_args(argv)
+    parser.add_argument("--max-seconds", type=float,
+                        help="stop feeding frames after this long [s] (as Ctrl-C does), then drain, save and report")
+    return parser
 
-    from raspv_perception.scene_config import SceneConfig
-    from raspv_perception.scene_perception import ScenePerception
-    from raspv_slam.config import SlamConfig
-    from raspv_slam.evaluation import write_trajectory
-    from raspv_slam.map_store import save_map
+
+def main(argv: list[str] | None = None) -> int:
     from raspv_slam.recordings import RecordingError, open_recording
-    from raspv_slam.slam_system import SlamSystem
 
+    args = parser().parse_args(argv)
     try:
         rec = open_recording(args.recording)
     except RecordingError as exc:
         print(f"slam_memory_walk: {exc}", file=sys.stderr)
         return 2
+    from raspv_slam.config import SlamConfig
+
+    return measure(rec.frames(), rec.intrinsics,
+                   SlamConfig(distortion=rec.distortion, rolling_shutter_readout=rec.rolling_shutter), args)
+
+
+def measure(frames, intrinsics, config, args) -> int:
+    """Build a map of ``frames`` (RecordingFrame-like: stamp, rgb, depth) and print the memory."""
+    from raspv_perception.scene_config import SceneConfig
+    from raspv_perception.scene_perception import ScenePerception
+    from raspv_slam.evaluation import write_trajectory
+    from raspv_slam.map_store import save_map
+    from raspv_slam.slam_system import SlamSystem
+
     sampler = MemorySampler()
     scene = ScenePerception(SceneConfig())
     start = time.monotonic()
     print(f"start: resident set {sampler.read()[0]:.0f} MB", flush=True)
-    slam = SlamSystem(rec.intrinsics, SlamConfig(distortion=rec.distortion, rolling_shutter_readout=rec.rolling_shutter))
+    slam = SlamSystem(intrinsics, config)
     online_stamps, online_poses = [], []
     drained = True
     try:
-        for i, f in enumerate(rec.frames()):
+        for i, f in enumerate(_until_stopped(frames, start, args.max_seconds)):
             if args.frames is not None and i >= args.frames:
                 break
+            first_stamp = f.stamp if i == 0 else first_stamp
             r = slam.process(f.stamp, f.rgb, f.depth)
             if r.map_from_camera is not None and r.map_id == 0:
                 online_stamps.append(f.stamp)
                 online_poses.append(r.map_from_camera)
             if r.map_from_camera is not None and f.depth is not None and not slam.map.anchored:
-                s = scene.process(f.depth, rec.intrinsics).structure
+                s = scene.process(f.depth, intrinsics).structure
                 if s.floor_found:
                     slam.anchor_to_floor(s.floor_plane, f.stamp)
             if i % args.every == 0:
                 own, total = sampler.read()
                 lc = slam.loop_closer
                 backlog = lc._queue.qsize() if lc is not None else 0
-                print(f"frame {i} t {f.stamp - rec_start(rec, f.stamp):.1f} s: {len(slam.map)} keyframes, "
+                print(f"frame {i} t {f.stamp - first_stamp:.1f} s: {len(slam.map)} keyframes, "
                       f"loop-closer backlog {backlog}, resident {own:.0f} MB (+children {total:.0f} MB), "
                       f"peaks {sampler.peak_own:.0f} / {sampler.peak_total:.0f} MB, {slam.counts}, "
                       f"{time.monotonic() - start:.0f} s", flush=True)
@@ -158,14 +173,15 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-_FIRST: list[float] = []
-
-
-def rec_start(rec, stamp: float) -> float:
-    """The first frame's stamp [s] (seconds into the walk are printed)."""
-    if not _FIRST:
-        _FIRST.append(stamp)
-    return _FIRST[0]
+def _until_stopped(frames, start: float, max_seconds: float | None):
+    """The frames until ``max_seconds`` have passed since ``start`` or SIGINT (Ctrl-C) came."""
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    for f in frames:
+        if stop.is_set() or (max_seconds is not None and time.monotonic() - start > max_seconds):
+            print(f"stopped feeding frames after {time.monotonic() - start:.0f} s", flush=True)
+            return
+        yield f
 
 
 if __name__ == "__main__":

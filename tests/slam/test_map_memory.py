@@ -32,13 +32,16 @@ def test_the_streamed_grid_is_the_batch_grid():
     np.testing.assert_array_equal(streamed.cells[:rows, :cols], batch.cells[:rows, :cols])
 
 
-def _map(keyframes: int) -> SlamMap:
+def _map(keyframes: int, features: int = 0) -> SlamMap:
     """A floor-anchored map of ``keyframes`` keyframes looking at the wall and the pillar from
-    places 2 cm apart (M = S: the map frame is the test's)."""
+    places 2 cm apart (M = S: the map frame is the test's), with ``features`` random ORB
+    features each (53 bytes a feature)."""
     slam_map = SlamMap(FULL, SlamConfig())
-    empty = Features(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros((0, 3), np.float32),
-                     np.zeros(0, np.int8))
+    rng = np.random.default_rng(0)
     for i in range(keyframes):
+        empty = Features(rng.uniform(0, 100, (features, 2)).astype(np.float32),
+                         rng.integers(0, 256, (features, 32), dtype=np.uint8),
+                         rng.uniform(0, 3, (features, 3)).astype(np.float32), np.zeros(features, np.int8))
         T = np.eye(4)
         T[:3, :3] = LEVEL
         T[:3, 3] = (0.0, -1.0 + 0.02 * i, CAMERA_Z)
@@ -48,10 +51,10 @@ def _map(keyframes: int) -> SlamMap:
     return slam_map
 
 
-def _peak_bytes(slam_map: SlamMap) -> int:
+def _peak_bytes(slam_map: SlamMap, work=floor_occupancy) -> int:
     tracemalloc.start()
     try:
-        floor_occupancy(slam_map)
+        work(slam_map)
         return tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -63,3 +66,23 @@ def test_the_floor_occupancy_of_a_map_does_not_grow_with_its_keyframes():
     assert (grid_many.cells == 100).sum() >= (grid_few.cells == 100).sum() > 50       # the wall is mapped
     # decoded all at once, 180 keyframes' depth and points took 3.0x the memory of 60 (1.14x streamed)
     assert _peak_bytes(many) < 1.5 * _peak_bytes(few)
+
+
+def test_saving_a_map_does_not_copy_its_keyframes(tmp_path):
+    """The keyframes' images and features go to disk part by part (np.savez of their
+    concatenation held a copy of the whole map, twice: +511 MB on a 10-minute walk's map)."""
+    from raspv_slam.map_store import load_map, save_map
+
+    few, many = _map(60, features=1000), _map(180, features=1000)
+    for m in (few, many):
+        m.anchored = False                      # the occupancy is measured above: the files alone here
+    save_map(few, tmp_path / "warm")
+    added = sum(kf.nbytes for kf in many.keyframes.values()) - sum(kf.nbytes for kf in few.keyframes.values())
+    grown = _peak_bytes(many, lambda m: save_map(m, tmp_path / "many")) - \
+        _peak_bytes(few, lambda m: save_map(m, tmp_path / "few"))
+    assert grown < 0.1 * added, (grown, added)                  # np.savez: 1.6x the keyframes added
+    back = load_map(tmp_path / "many")
+    assert sorted(back.keyframes) == sorted(many.keyframes)
+    for k in (0, 179):
+        np.testing.assert_array_equal(back.keyframes[k].depth_png, many.keyframes[k].depth_png)
+        np.testing.assert_array_equal(back.keyframes[k].features.points, many.keyframes[k].features.points)
