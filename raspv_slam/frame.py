@@ -55,6 +55,17 @@ class Frame:
         return self._probe
 
 
+def pyramid_iterations(finest: tuple[int, ...], width: int, coarsest_px: int) -> tuple[int, ...]:
+    """Iterations per level of the dense registration's pyramid, coarse to fine: as many levels as
+    halve ``width`` [px] down to the last one at least ``coarsest_px`` wide (at least one); the
+    finest levels take ``finest`` (its last values), the coarser ones its first value."""
+    levels = 1
+    while width / 2 ** levels >= coarsest_px:
+        levels += 1
+    finest = tuple(int(i) for i in finest)
+    return (finest[0],) * max(0, levels - len(finest)) + finest[max(0, len(finest) - levels):]
+
+
 class FramePreparer:
     """Turns raw images into :class:`Frame` s for one camera."""
 
@@ -67,7 +78,7 @@ class FramePreparer:
         self.extractor = FeatureExtractor(intrinsics, config)
         self.registration = DenseRegistration(OdometryConfig(
             scale=1.0, threads=config.threads, min_depth=config.min_depth, max_depth=config.max_depth,
-            iterations=tuple(config.dense_iterations)))
+            iterations=pyramid_iterations(config.dense_iterations, w, config.dense_coarsest_px)))
         self._maps = None
         if config.distortion:
             K = self.small_intrinsics

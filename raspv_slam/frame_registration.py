@@ -11,8 +11,12 @@ target is usually a keyframe (its features carry 3-D points), the source the fra
    with a translation when the points are far and noisy (blur, coarse pyramid levels): it is a
    starting point.
 2. The dense registration (``raspv_perception``'s Open3D hybrid odometry, half-size images)
-   refines it. When PnP failed, or its result does not pass verification (3.), the dense
-   registration also starts from the predicted pose (motion model, the current map).
+   refines it. It also starts from the predicted pose (motion model, the current map) when the
+   PnP start's result is not where the prediction is (within ``SAME_RESULT``: the prediction would
+   not have led elsewhere) or does not pass verification (3.). When PnP found too few inliers to
+   be trusted, its pose (from ``PNP_START_INLIERS``) is still a start when a prediction is given, and so are the caller's
+   ``other_starts`` (the tracker's zero-motion pose: a turn that stops between two frames leaves
+   the constant-velocity prediction a whole frame's turn off).
 3. Each result is verified: a grid of the source's depth points is moved into the target and
    compared with the target's depth there; a pose counts when at least ``min_agreement`` of
    the points that land on measured depth agree within the sensor's noise (3σ of the Kinect
@@ -36,6 +40,8 @@ from raspv_slam.se3 import from_rvec_tvec, inverse, motion_size
 DEPTH_NOISE_Z2 = 1.42e-3      # σ_z / z² of structured-light depth [1/m] (Khoshelham & Elberink 2012)
 DEPTH_SLACK = 0.01            # depth-to-colour registration and interpolation [m]
 MIN_DENSE_FITNESS = 0.05      # share of the source's depth pixels the dense registration matched
+PNP_START_INLIERS = 8         # a PnP pose with fewer inliers than trusted is still a start for the dense step
+SAME_RESULT = (0.02, 1.0)     # [m, deg] a start this near the PnP start's result would end in the same place
 
 
 @dataclass
@@ -111,20 +117,27 @@ class FrameRegistrar:
         return agree, agree / int(has.sum())
 
     def register(self, source: Frame, target: Frame, min_inliers: int | None = None,
-                 predicted_target_from_source: np.ndarray | None = None) -> Registration:
-        """PnP, dense refinement and verification (see the module docstring)."""
+                 predicted_target_from_source: np.ndarray | None = None,
+                 other_starts: tuple[np.ndarray, ...] = ()) -> Registration:
+        """PnP, dense refinement and verification (see the module docstring). ``other_starts``:
+        further target ← source guesses for the dense step, tried only when PnP is not trusted."""
         c = self.config
         min_inliers = c.min_inliers if min_inliers is None else min_inliers
-        pose, inliers = self.pnp(source.features, target.features, min_inliers)
+        # an untrusted PnP pose is a start only where a dense-only result is wanted (a prediction is given)
+        weakest = min(min_inliers, PNP_START_INLIERS) if predicted_target_from_source is not None else min_inliers
+        pose, inliers = self.pnp(source.features, target.features, weakest)
+        trusted = pose is not None and inliers >= min_inliers
         if source.dense is None or target.dense is None:
-            if pose is None:
+            if not trusted:
                 return Registration(None, inliers, 0, 0.0, "failed")
             return Registration(pose, inliers, 0, 0.0, "pnp")
         starts = [s for s in (pose, predicted_target_from_source) if s is not None]
+        if not trusted:
+            starts += list(other_starts)
         best: Registration | None = None
         for n, start in enumerate(starts):
-            if n == 1 and best is not None:
-                break                              # the PnP start verified: no second start
+            if n > 0 and trusted and best is not None and not self._elsewhere(best.target_from_source, start):
+                break                              # the PnP start verified where the prediction is
             refined, fitness = self.dense.register(source.dense, target.dense, start,
                                                    geometric_only=source.small_rgb is None or target.small_rgb is None)
             if fitness < MIN_DENSE_FITNESS:
@@ -134,9 +147,15 @@ class FrameRegistrar:
                 continue                           # the registration ran away from its start
             agreeing, share = self.agreement(source, target, refined)
             if share >= c.min_agreement and agreeing >= min_inliers and (best is None or agreeing > best.agreeing):
-                best = Registration(refined, inliers if n == 0 and pose is not None else 0, agreeing, share,
-                                    "pnp+dense" if n == 0 and pose is not None else "dense")
+                from_pnp = n == 0 and trusted
+                best = Registration(refined, inliers if from_pnp else 0, agreeing, share,
+                                    "pnp+dense" if from_pnp else "dense")
         if best is not None:
             return best
         return Registration(None, inliers, 0, 0.0, "failed")
 
+    @staticmethod
+    def _elsewhere(result: np.ndarray, start: np.ndarray) -> bool:
+        """A start farther than ``SAME_RESULT`` from a registration's result (it may end elsewhere)."""
+        dt, dr = motion_size(inverse(start) @ result)
+        return dt > SAME_RESULT[0] or dr > SAME_RESULT[1]

@@ -161,7 +161,7 @@ class SlamSystem:
         c = self.config
         ref_from_previous = self.ref_from_camera
         predicted = ref_from_previous @ self.velocity
-        ref_from_camera, reg, to_last = self._register_to_reference(frame, predicted)
+        ref_from_camera, reg, to_last = self._register_to_reference(frame, predicted, ref_from_previous)
         if ref_from_camera is not None and not self._plausible(ref_from_previous, ref_from_camera):
             ref_from_camera = None
         if ref_from_camera is not None:
@@ -193,16 +193,21 @@ class SlamSystem:
         self._maybe_new_keyframe(frame)
         return TrackingState.TRACKING, reg.inliers
 
-    def _register_to_reference(self, frame: Frame, predicted: np.ndarray):
-        """(ref ← camera or None, the registration, 1 if it was to the last tracked frame else 0)."""
-        reg = self.registrar.register(frame, self._keyframe(self.ref), predicted_target_from_source=predicted)
+    def _register_to_reference(self, frame: Frame, predicted: np.ndarray, ref_from_previous: np.ndarray):
+        """(ref ← camera or None, the registration, 1 if it was to the last tracked frame else 0).
+        ``predicted``: the constant-velocity pose; ``ref_from_previous`` (zero motion) is a start too
+        when PnP is not trusted (a turn that stops between two frames)."""
+        reg = self.registrar.register(frame, self._keyframe(self.ref), predicted_target_from_source=predicted,
+                                      other_starts=(ref_from_previous,))
         if reg.ok:
             return reg.target_from_source, reg, 0
         if self._last_tracked is not None:
             # fast motion took the view too far from the keyframe: register to the last tracked frame
             last, last_ref, last_ref_from_last = self._last_tracked
             ref_from_last = self.map.relative(self.ref, last_ref) @ last_ref_from_last
-            reg = self.registrar.register(frame, last, predicted_target_from_source=inverse(ref_from_last) @ predicted)
+            last_from_ref = inverse(ref_from_last)
+            reg = self.registrar.register(frame, last, predicted_target_from_source=last_from_ref @ predicted,
+                                          other_starts=(last_from_ref @ ref_from_previous,))
             if reg.ok:
                 return ref_from_last @ reg.target_from_source, reg, 1
         return None, reg, 0
@@ -232,7 +237,7 @@ class SlamSystem:
                 <= c.reprojection_px / INLIER_THRESHOLD_SIGMAS:
             return None
         corrected = self.preparer.corrected(frame, omega)
-        again, reg, to_last = self._register_to_reference(corrected, ref_from_camera)
+        again, reg, to_last = self._register_to_reference(corrected, ref_from_camera, ref_from_previous)
         if again is None or not self._plausible(ref_from_previous, again):
             return None
         self.counts["rolling_shutter_second_pass"] += 1
