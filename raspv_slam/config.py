@@ -29,12 +29,11 @@ class SlamConfig:
     min_inliers: int = 20               # a PnP pose with fewer inliers is not trusted
     # -- dense refinement (raspv_perception's RGB-D registration, half-size images)
     dense_scale: float = 0.5
-    dense_iterations: tuple[int, ...] = (6, 4, 2)   # the finest levels' iterations, coarse to fine (Open3D: 10, 5, 3)
-    dense_coarsest_px: int = 40         # the pyramid goes down to the level >= this wide (its first iterations count
-                                        # for the coarser levels): a fixed angular reach for any camera's size. When PnP
-                                        # fails the start is the motion model's, a whole turn's frame off at a turn's
-                                        # onset (8 deg at 10 Hz): from an 80-px coarsest level the registration settled
-                                        # 19 cm / 6 deg off on a plain wall, its depth agreeing; from 40 px it did not
+    dense_iterations: tuple[int, ...] = (6, 4, 2)   # coarse to fine; PnP gives a near start (Open3D: 10, 5, 3)
+    dense_coarsest_px: int = 40         # a start not from PnP (the motion model's, a whole frame's turn off when a
+                                        # turn starts or stops between frames) is registered on a pyramid going down
+                                        # to the level >= this wide (4 levels at 320 px; coarser levels take the
+                                        # first iterations count): a fixed angular reach for any camera's size
     min_agreement: float = 0.3          # share of 3-D points that must agree with the other frame's depth
     # -- tracking
     lost_after: int = 10                # consecutive failed frames before the state is LOST (1/3 s at 30 Hz)

@@ -9,7 +9,7 @@ camera.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -56,14 +56,14 @@ class Frame:
 
 
 def pyramid_iterations(finest: tuple[int, ...], width: int, coarsest_px: int) -> tuple[int, ...]:
-    """Iterations per level of the dense registration's pyramid, coarse to fine: as many levels as
-    halve ``width`` [px] down to the last one at least ``coarsest_px`` wide (at least one); the
-    finest levels take ``finest`` (its last values), the coarser ones its first value."""
+    """Iterations per level of a dense registration's pyramid, coarse to fine: as many levels as
+    halve ``width`` [px] down to the last one at least ``coarsest_px`` wide, and never fewer than
+    ``finest`` has; the finest levels take ``finest``, the coarser ones its first value."""
     levels = 1
     while width / 2 ** levels >= coarsest_px:
         levels += 1
     finest = tuple(int(i) for i in finest)
-    return (finest[0],) * max(0, levels - len(finest)) + finest[max(0, len(finest) - levels):]
+    return (finest[0],) * max(0, levels - len(finest)) + finest
 
 
 class FramePreparer:
@@ -78,7 +78,10 @@ class FramePreparer:
         self.extractor = FeatureExtractor(intrinsics, config)
         self.registration = DenseRegistration(OdometryConfig(
             scale=1.0, threads=config.threads, min_depth=config.min_depth, max_depth=config.max_depth,
-            iterations=pyramid_iterations(config.dense_iterations, w, config.dense_coarsest_px)))
+            iterations=tuple(config.dense_iterations)))
+        # for starts far from the answer (not from PnP): the same registration on a deeper pyramid
+        self.wide_registration = DenseRegistration(replace(
+            self.registration.config, iterations=pyramid_iterations(config.dense_iterations, w, config.dense_coarsest_px)))
         self._maps = None
         if config.distortion:
             K = self.small_intrinsics

@@ -69,7 +69,8 @@ class SlamSystem:
         cv2.setNumThreads(config.threads)
         self.localisation_only = localisation_only
         self.preparer = FramePreparer(intrinsics, config)
-        self.registrar = FrameRegistrar(intrinsics, self.preparer.small_intrinsics, config, self.preparer.registration)
+        self.registrar = FrameRegistrar(intrinsics, self.preparer.small_intrinsics, config, self.preparer.registration,
+                                        self.preparer.wide_registration)
         self.map = slam_map if slam_map is not None else SlamMap(intrinsics, config)
         self.loop_closer = None if localisation_only else LoopCloser(self.map, self.registrar, self.preparer, config)
         self.state = TrackingState.INITIALISING
