@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import queue
 import threading
+import time
 
 import numpy as np
 
@@ -88,13 +89,29 @@ class LoopCloser:
         if self.error is not None:
             raise RuntimeError(f"SLAM loop closing failed: {self.error}") from self.error
 
-    def wait_idle(self) -> None:
+    def wait_idle(self, timeout_s: float | None = None) -> bool:
+        """Wait until every submitted keyframe is processed (at most ``timeout_s`` [s]; None: no
+        limit). True when idle. On a long walk through new places the backlog can be minutes long."""
         if self._thread is not None:
-            self._queue.join()
+            if timeout_s is None:
+                self._queue.join()
+            else:
+                deadline = time.monotonic() + timeout_s
+                while self.busy and time.monotonic() < deadline:
+                    time.sleep(0.02)
         self.check()
+        return not self.busy
 
     def stop(self) -> None:
+        """Stop the thread after the keyframe in hand; keyframes still waiting are dropped from loop
+        closing (they stay in the map, as tracking placed them), so stopping never waits for a backlog."""
         if self._thread is not None:
+            while True:
+                try:
+                    self._queue.get_nowait()
+                except queue.Empty:
+                    break
+                self._queue.task_done()
             self._queue.put(STOP)
             self._thread.join()
             self._thread = None

@@ -63,6 +63,9 @@ from raspv_slam.slam_system import SlamSystem          # (OpenCV, Open3D, GTSAM)
 from raspv_viz.slam_markers import slam_markers
 from raspv_viz.viz_msg import marker_array
 
+# saving on request or at exit waits this long [s] for the loop closer's backlog (minutes on a long
+# walk through new places); the keyframes it did not process are saved as tracking placed them
+EXIT_LOOP_WAIT_S = 10.0
 FRAME_SLACK_NS = 5_000_000      # stamps jitter: a frame this much early still counts as due (max_rate) [ns]
 
 
@@ -94,6 +97,8 @@ class SlamNode(RaspvNode):
         self._stop = False
         self._lock = threading.Lock()            # the SLAM system: the worker, saving and the service
         self._autosaving = threading.Lock()
+        self._saving = threading.Lock()          # one save at a time (never the tracking lock: a large map takes seconds)
+        self._closing = False
         self.anchored = not p["gravity_from_floor"]
         self.publishing = self.anchored
         self.first_frame_s: float | None = None
@@ -319,20 +324,24 @@ class SlamNode(RaspvNode):
                                                              frame_id=frames.MAP)))
 
     # -- saving ----------------------------------------------------------------------------------
-    def save(self, path: Path | None = None) -> tuple[bool, str, str, int]:
-        """(success, message, path, keyframes) of saving the map now (to ``path`` or ``save_path``)."""
+    def save(self, path: Path | None = None, wait_for_loops_s: float | None = EXIT_LOOP_WAIT_S) -> tuple[bool, str, str, int]:
+        """(success, message, path, keyframes) of saving the map now (to ``path`` or ``save_path``),
+        the loop closer's backlog waited for at most ``wait_for_loops_s``. Tracking goes on
+        meanwhile: the core copies the map under the map's own lock and writes outside it."""
         target = path or self.save_path
         if target is None:
             return False, "localisation mode does not change the map: nothing to save", "", 0
         t0 = time.monotonic()
         with self._lock:
-            if self.system is None:
-                return False, "no map yet (no frame processed)", "", 0
+            system = self.system
+        if system is None:
+            return False, "no map yet (no frame processed)", "", 0
+        with self._saving:
             try:
-                self.system.save(target)
+                system.save(target, wait_for_loops_s=wait_for_loops_s)
             except (OSError, SlamMapError) as exc:
                 return False, f"could not save the map to {target}: {exc}", str(target), 0
-            keyframes = len(self.system.map.keyframes)
+            keyframes = len(system.map.keyframes)
         return True, f"map saved to {target} ({keyframes} keyframes, {time.monotonic() - t0:.2f} s)", str(target), \
             keyframes
 
@@ -347,18 +356,19 @@ class SlamNode(RaspvNode):
 
     def autosave(self) -> None:
         """Save in a thread of its own (the executor keeps serving); one at a time."""
-        if self.system is not None and self._autosaving.acquire(blocking=False):
+        if self.system is not None and not self._closing and self._autosaving.acquire(blocking=False):
             threading.Thread(target=self._autosave_now, name="slam-autosave", daemon=True).start()
 
     def _autosave_now(self) -> None:
         try:
-            ok, message, _, _ = self.save()
+            ok, message, _, _ = self.save(wait_for_loops_s=0.0)      # what the map holds now
             if not ok:
                 self.warn_throttled("autosave", message, period_s=60.0)
         finally:
             self._autosaving.release()
 
     def close(self) -> None:
+        self._closing = True
         with self._wake:
             self._stop = True
             self._wake.notify()

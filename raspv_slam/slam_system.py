@@ -414,15 +414,18 @@ class SlamSystem:
         out = np.array([world_from_slam @ poses[ref] @ rel for _, ref, rel in kept]).reshape(-1, 4, 4)
         return stamps, out
 
-    def save(self, path: str | Path) -> None:
-        """Write the map into the folder ``path`` (see :mod:`raspv_slam.map_store`). A map loaded
-        for localisation is never written (ValueError)."""
+    def save(self, path: str | Path, wait_for_loops_s: float | None = None) -> None:
+        """Write the map into the folder ``path`` (see :mod:`raspv_slam.map_store`), after the loop
+        closer has processed its keyframes (waiting at most ``wait_for_loops_s`` [s]; None: until
+        it has; the map is consistent either way, keyframes not processed yet are saved as tracking
+        placed them). Safe while another thread tracks (the map is copied under its lock). A map
+        loaded for localisation is never written (ValueError)."""
         from raspv_slam.map_store import save_map
 
         if self.localisation_only:
             raise ValueError("a map loaded for localisation is not saved: it stays as it is on disk")
         if self.loop_closer is not None:
-            self.loop_closer.wait_idle()
+            self.loop_closer.wait_idle(wait_for_loops_s)
         save_map(self.map, path)
 
     @classmethod
