@@ -50,11 +50,13 @@ def check_recording_opens(path: str | Path, sdk: str) -> None:
         from raspv_camera.depthai_driver import recording_files
 
         files = recording_files(path)
+        if not files:
+            raise CameraError(f"{path}: no .mcap file: not a DepthAI recording")
+        for f in files:
+            _check_mcap(f)
         if len(files) < 2:
             raise CameraError(f"{path}: a DepthAI recording needs a depth and a colour .mcap file "
                               f"(found {len(files)})")
-        for f in files:
-            _check_mcap(f)
 
 
 def _realsense_streams(path: Path, counts: dict[str, int]) -> None:

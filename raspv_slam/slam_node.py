@@ -142,13 +142,15 @@ class SlamNode(RaspvNode):
     def on_camera_info(self, msg: CameraInfo) -> None:
         """Keep the intrinsics and the lens distortion: the core undistorts the keypoints (a raw
         Kinect-class image unrectified is off by degrees at its edges, which PnP and the dense
-        registration take for rotation)."""
-        super().on_camera_info(msg)
+        registration take for rotation). The distortion is kept before the intrinsics: the worker
+        makes the core as soon as it sees intrinsics (it took the first ones without distortion
+        when it ran in between, one run in a few)."""
         try:
             self.distortion = camera_info_distortion(msg)
         except ValueError as exc:
             self.distortion = ()
             self.warn_throttled("distortion", f"camera info: {exc}; tracking as if the images were rectified")
+        super().on_camera_info(msg)
 
     def on_scene(self, msg: SceneStructureMsg) -> None:
         if self.anchored or not msg.floor_found:

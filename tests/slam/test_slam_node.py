@@ -37,14 +37,16 @@ class FloorSlide(Exception):
     """The floor point moved more than the tolerance in the map frame (the SLAM core's accuracy)."""
 
 
-# Only the floor criterion is expected to fail, and only until the core meets it: any other
-# failure fails the test, and a pass fails it too (strict) so this mark is then removed.
-@pytest.mark.xfail(raises=FloorSlide, strict=True,
-                   reason="issue 32 target not met: the Kinect v1 colour camera's rolling shutter. With the node's "
-                          "rolling_shutter_readout (25 ms, the tum-fr1 preset) each fast 10-Hz frame is registered "
-                          "again with its keypoints corrected by its own measured rotation rate: the floor point "
-                          "(2.2 m away) moves 5.5 cm at most and 5.2 cm at the return (14.9 / 7.9 as a "
-                          "global shutter; the core alone 5.5 / 5.2). Measured 2026-12-07, docs/slam.md")
+# Only the floor criterion may fail (any other failure fails the test). Not strict: the figure
+# straddles the target — the node's loop closer corrects the map in the background, and where its
+# corrections land among the 17 frames varies from run to run (two outcomes seen, 7 Dec 2026).
+@pytest.mark.xfail(raises=FloorSlide, strict=False,
+                   reason="issue 32 target met in some runs only: the Kinect v1 colour camera's rolling shutter. "
+                          "With the node's rolling_shutter_readout (25 ms, the tum-fr1 preset) each fast 10-Hz frame "
+                          "is registered again with its keypoints corrected by its own measured rotation rate: the "
+                          "floor point (2.2 m away) moves 5.5 cm at most and 5.2 cm at the return in most runs, "
+                          "4.6 / 3.5 cm (within 5 cm) in the others (5 of 26 runs, 7 Dec 2026; 14.9 / 7.9 as a "
+                          "global shutter). docs/slam.md")
 def test_slam_keeps_a_floor_point_in_the_map_frame_across_a_pan(graph, probe, tmp_path):
     recording = discover_frames(DATA)
     K = CameraIntrinsics(640, 480, *CAMERA_PRESETS["tum-fr1"])

@@ -75,21 +75,31 @@ def test_frames_between_the_cores_get_poses_that_follow_the_camera(graph, probe)
         else:
             pytest.fail(f"no answer for the frame at {stamp:.3f} s")
 
-    processed = {round(json.loads(m.data)["stamp"], 3) for m in states.messages}
+    # the core's frames: those max_rate lets through (>= 95 ms after the last one taken), as the node decides
+    processed, last = set(), None
+    for p in pairs:
+        if last is None or p.stamp_s - last >= 0.095:
+            processed.add(round(p.stamp_s, 3))
+            last = p.stamp_s
     got = {round(stamp_to_seconds(m.header.stamp), 3): pose_to_matrix(m.pose) for m in poses.messages}
     between = [round(p.stamp_s, 3) for p in pairs if round(p.stamp_s, 3) not in processed]
     assert len(between) >= 0.4 * len(pairs), f"{len(between)} of {len(pairs)} frames skipped by max_rate"
     flow_posed = [t for t in between if t in got]
     assert len(flow_posed) >= 0.9 * len(between), f"{len(flow_posed)} of the {len(between)} frames between have a pose"
-    assert json.loads(states.messages[-1].data)["flow_frames"] >= len(flow_posed) - 1
+    final = json.loads(states.wait(1, timeout=30, predicate=lambda m: abs(json.loads(m.data)["stamp"]
+                                                                             - max(processed)) < 1e-3)[-1].data)
+    assert final["flow_frames"] >= len([t for t in flow_posed if t < max(processed)])
 
     # each such pose against the tracked frame before it: the mocap's motion over those 67 ms
     errors = []
     for t in flow_posed:
-        before = max(s for s in processed if s < t and s in got)
+        before = max((s for s in processed if s < t and s in got), default=None)
+        if before is None:                   # the first frames, before the core placed one
+            continue
         est = np.linalg.inv(got[before]) @ got[t]
         true = np.linalg.inv(truth.lookup(before)) @ truth.lookup(t)
         errors.append(rotation_deg(np.linalg.inv(est) @ true))
+    assert len(errors) >= 0.8 * len(flow_posed)
     print(f"{len(flow_posed)}/{len(between)} frames between posed; rotation vs mocap median "
           f"{np.median(errors):.2f} deg, max {max(errors):.2f}")
     assert np.median(errors) < 1.0 and np.percentile(errors, 90) < 2.5
