@@ -17,9 +17,10 @@ FLOOR_TOLERANCE_M = 0.05        # the issue's target for a world-fixed floor tex
 PAN_DEG = 30.0                  # the recording turns at least this far away from its first view, and back
 
 
-def ground_truth() -> PoseBuffer:
-    """World ← camera optical of the recording (mocap world: z up, the floor at z ≈ 0)."""
-    stamps, rows = read_groundtruth(DATA / "groundtruth.txt")
+def ground_truth(folder: Path = DATA) -> PoseBuffer:
+    """World ← camera optical of a TUM recording ``folder`` (default the pan; mocap world: z up,
+    the floor at z ≈ 0)."""
+    stamps, rows = read_groundtruth(folder / "groundtruth.txt")
     truth = PoseBuffer(max_age_s=1e3, max_extrapolation_s=0.02)
     for t, (x, y, z, qx, qy, qz, qw) in zip(stamps, rows):
         T = np.eye(4)

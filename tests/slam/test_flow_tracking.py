@@ -5,35 +5,27 @@ than the constant-velocity guess a display would otherwise use, and a frame of a
 gets no pose."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from raspv_bags.from_frames import CAMERA_DISTORTION, CAMERA_PRESETS, discover_frames, read_depth, read_groundtruth
+from raspv_bags.from_frames import CAMERA_DISTORTION, CAMERA_PRESETS, discover_frames, read_depth
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_common.pose_buffer import PoseBuffer, interpolate_pose
+from raspv_common.pose_buffer import interpolate_pose
 from raspv_common.rgbd_files import read_color
-from raspv_common.rotations import quaternion_to_matrix
 from raspv_slam.flow_tracking import FlowTracker
+from tests.slam.conftest import motion_error
+from tests.slam.pan_floor import ground_truth
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "tum_fr1_rpy_subset"
 
-
-def rotation_deg(T: np.ndarray) -> float:
-    return math.degrees(math.acos(np.clip((np.trace(T[:3, :3]) - 1) / 2, -1.0, 1.0)))
 
 
 @pytest.fixture(scope="module")
 def recording():
     rec = discover_frames(DATA)
-    stamps, rows = read_groundtruth(DATA / "groundtruth.txt")
-    truth = PoseBuffer(max_age_s=1e4, max_extrapolation_s=0.02)
-    for t, (x, y, z, qx, qy, qz, qw) in zip(stamps, rows):
-        T = np.eye(4)
-        T[:3, :3], T[:3, 3] = quaternion_to_matrix(qx, qy, qz, qw), (x, y, z)
-        truth.add(float(t), T)
+    truth = ground_truth(DATA)
     frames = [(p.stamp_s, read_color(p.color), read_depth(p.depth, rec.depth_format, rec.depth_scale))
               for p in rec.pairs]
     return frames, truth
@@ -57,10 +49,10 @@ def test_flow_follows_the_real_camera_between_reference_frames(recording):
             s = (t - t_ref) / (t_ref - frames[i - 3][0])
             guess = interpolate_pose(np.eye(4), before, s)
             result = flow.track(frames[j][1], guess)
-            guess_err.append(rotation_deg(np.linalg.inv(guess) @ true_motion))
+            guess_err.append(motion_error(np.eye(4), np.linalg.inv(guess) @ true_motion)[1])
             if result.ref_from_camera is not None:
                 placed += 1
-                flow_err.append(rotation_deg(np.linalg.inv(result.ref_from_camera) @ true_motion))
+                flow_err.append(motion_error(np.eye(4), np.linalg.inv(result.ref_from_camera) @ true_motion)[1])
     n = len(guess_err)
     print(f"{placed}/{n} placed; rotation error [deg] flow median {np.median(flow_err):.2f} max {max(flow_err):.2f}, "
           f"constant velocity median {np.median(guess_err):.2f} max {max(guess_err):.2f}")

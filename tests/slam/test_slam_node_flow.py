@@ -9,7 +9,6 @@ or its /slam/state), so every frame is looked at whatever the machine's load."""
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -18,34 +17,26 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header, String
 
-from raspv_bags.from_frames import CAMERA_DISTORTION, CAMERA_PRESETS, discover_frames, read_depth, read_groundtruth
+from raspv_bags.from_frames import CAMERA_DISTORTION, CAMERA_PRESETS, discover_frames, read_depth
 from raspv_common import frames, topics
 from raspv_common.conversions import array_to_image, intrinsics_to_camera_info, pose_to_matrix, seconds_to_stamp, \
     stamp_to_seconds
 from raspv_common.intrinsics import CameraIntrinsics
-from raspv_common.pose_buffer import PoseBuffer
 from raspv_common.qos import LATCHED_QOS, SENSOR_QOS
 from raspv_common.rgbd_files import read_color
-from raspv_common.rotations import quaternion_to_matrix
+from tests.slam.conftest import motion_error
+from tests.slam.pan_floor import ground_truth
 
 pytestmark = [pytest.mark.integration]
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "tum_fr1_rpy_subset"
 
 
-def rotation_deg(T: np.ndarray) -> float:
-    return math.degrees(math.acos(np.clip((np.trace(T[:3, :3]) - 1) / 2, -1.0, 1.0)))
-
 
 def test_frames_between_the_cores_get_poses_that_follow_the_camera(graph, probe):
     recording = discover_frames(DATA)
     K = CameraIntrinsics(640, 480, *CAMERA_PRESETS["tum-fr1"])
-    stamps, rows = read_groundtruth(DATA / "groundtruth.txt")
-    truth = PoseBuffer(max_age_s=1e4, max_extrapolation_s=0.02)
-    for t, (x, y, z, qx, qy, qz, qw) in zip(stamps, rows):
-        T = np.eye(4)
-        T[:3, :3], T[:3, 3] = quaternion_to_matrix(qx, qy, qz, qw), (x, y, z)
-        truth.add(float(t), T)
+    truth = ground_truth(DATA)
     poses = probe.subscribe(topics.CAMERA_POSE, PoseStamped)
     states = probe.subscribe(topics.SLAM_STATE, String, qos=LATCHED_QOS)
     graph({"launch": {"nodes": [{"kind": "slam"}]},
@@ -98,7 +89,7 @@ def test_frames_between_the_cores_get_poses_that_follow_the_camera(graph, probe)
             continue
         est = np.linalg.inv(got[before]) @ got[t]
         true = np.linalg.inv(truth.lookup(before)) @ truth.lookup(t)
-        errors.append(rotation_deg(np.linalg.inv(est) @ true))
+        errors.append(motion_error(np.eye(4), np.linalg.inv(est) @ true)[1])
     assert len(errors) >= 0.8 * len(flow_posed)
     print(f"{len(flow_posed)}/{len(between)} frames between posed; rotation vs mocap median "
           f"{np.median(errors):.2f} deg, max {max(errors):.2f}")
