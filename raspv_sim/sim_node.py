@@ -74,6 +74,7 @@ def sim_config(p: dict) -> SimConfig:
 class SimNode(SimGazeLog, RaspvNode):
     def __init__(self) -> None:
         super().__init__("sim", PARAMS)
+        self._plotting_import: threading.Thread | None = None
         p = self.params
         if not p["far"] > p["near"]:
             raise ConfigurationError(f"'far' ({p['far']} m) must be larger than 'near' ({p['near']} m)")
@@ -91,8 +92,12 @@ class SimNode(SimGazeLog, RaspvNode):
                 self.sim.close()
                 raise ConfigurationError(f"cannot write logs to '{p['log_dir']}': {exc.strerror}") from None
             self.get_logger().info(f"logging the run to {log.dir}")
-            # the run's plot is drawn at shutdown: import matplotlib now, not within the stop's grace
-            threading.Thread(target=_import_run_plotting, name="import-plotting", daemon=True).start()
+            # the run's plot is drawn at shutdown: import matplotlib now, not within the stop's grace.
+            # Not a daemon, and joined in close(): a daemon thread still importing a C++ extension
+            # when the interpreter exits is ended by pthread_exit inside C++ code, which aborts the
+            # process ("terminate called without an active exception", exit -6: demo test, 7 Dec)
+            self._plotting_import = threading.Thread(target=_import_run_plotting, name="import-plotting")
+            self._plotting_import.start()
         self.camera_info = intrinsics_to_camera_info(self.sim.intrinsics)
         self.pub_color = self.create_publisher(Image, topics.COLOR, SENSOR_QOS)
         self.pub_depth = self.create_publisher(Image, topics.DEPTH, SENSOR_QOS)
@@ -348,6 +353,8 @@ class SimNode(SimGazeLog, RaspvNode):
                   f"{1e3 * self.timings['render'] / n:.1f} ms, publish {1e3 * self.timings['publish'] / n:.1f} ms",
                   flush=True)
         if sim.log is not None:
+            if self._plotting_import is not None:
+                self._plotting_import.join()
             log_dir = sim.log.dir
             summary, png = sim.finish_log()
             print(f"sim: run logged in {log_dir}: {summary['duration_s']:.1f} s, {summary['path_length_m']:.1f} m, "

@@ -43,10 +43,38 @@ def main(argv):
     print("main", argv[1:], "spawned at", os.environ.get("RASPV_SPAWN_TIME"), flush=True)
 """
 
+# A real node (run_node, rclpy) whose timer callback sees SIGINT's KeyboardInterrupt turned into
+# pybind11's RuntimeError, as rclpy's take_message does when the interrupt lands inside a
+# message's conversion to Python (the scene node's log at a stop, CI of 7 Dec) — or, with
+# "real", a RuntimeError that no signal caused, which must still be a crash. The callback calls
+# the process's Python SIGINT handler itself: the KeyboardInterrupt comes before rclpy's signal
+# thread has shut the context down (in that CI run the context was still ok; raise_signal would
+# let rclpy's handler win the race here and the case would pass without the fix).
+CONVERSION_NODE = """
+import signal, sys
+from raspv_common.node import RaspvNode, run_node
 
-def _entry(tmp_path: Path, module: str, *args: str, **kw) -> subprocess.Popen:
+class ConversionNode(RaspvNode):
+    def __init__(self):
+        super().__init__("conversion", [])
+        self.create_timer(0.01, self.tick)
+
+    def tick(self):
+        if sys.argv[-1] == "real":
+            raise RuntimeError("a real failure")
+        try:
+            signal.getsignal(signal.SIGINT)(signal.SIGINT, None)
+        except KeyboardInterrupt:
+            raise RuntimeError("Unable to convert call argument '0' to Python object") from None
+
+def main(argv):
+    run_node(ConversionNode, argv)
+"""
+
+
+def _entry(tmp_path: Path, module: str, *args: str, node_args: tuple[str, ...] = (), **kw) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
-    return subprocess.Popen([sys.executable, "-m", "raspv_bringup.node_entry", *args, module], env=env,
+    return subprocess.Popen([sys.executable, "-m", "raspv_bringup.node_entry", *args, module, *node_args], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             preexec_fn=_die_with_parent, **kw)
 
@@ -94,6 +122,16 @@ def test_a_sigint_before_the_interpreter_is_up_waits_and_exits_quietly(tmp_path)
         proc.send_signal(signal.SIGINT)
         out = proc.communicate(timeout=60)[0]
         assert proc.returncode == 130 and "Fatal Python error" not in out and "Traceback" not in out, out
+
+
+def test_a_sigint_inside_a_message_conversion_is_a_clean_stop_and_a_real_error_is_not(tmp_path, ros_domain):
+    (tmp_path / "conversion_node.py").write_text(CONVERSION_NODE)
+    proc = _entry(tmp_path, "conversion_node", node_args=("interrupted",))
+    out = proc.communicate(timeout=60)[0]
+    assert proc.returncode == 0 and "Traceback" not in out, out
+    proc = _entry(tmp_path, "conversion_node", node_args=("real",))
+    out = proc.communicate(timeout=60)[0]
+    assert proc.returncode == 1 and "RuntimeError: a real failure" in out, out
 
 
 def test_a_warm_spare_waits_then_runs_the_node_or_leaves_when_not_needed(tmp_path):
