@@ -57,6 +57,24 @@ def _sources(tmp_path: Path) -> dict[str, list[str]]:
             for path in sorted(CONFIG.glob("*.yaml"))}
 
 
+def _noisy(text: str) -> list[str]:
+    """The noisy lines of a log; a traceback with its frames and exception (a CI failure must say
+    where it came from, not only that there was one)."""
+    lines, out, i = text.splitlines(), [], 0
+    while i < len(lines):
+        if NOISE.search(lines[i]):
+            j = i + 1
+            if lines[i].startswith("Traceback"):
+                while j < len(lines) and lines[j].startswith((" ", "\t")):
+                    j += 1
+                j = min(j + 1, len(lines))          # the exception line
+            out.append("\n".join(lines[i:j]))
+            i = j
+        else:
+            i += 1
+    return out
+
+
 def _stop_cleanly(i: int, name: str, overrides: list[str], graph, probe, tmp_path: Path,
                   env: dict[str, str]) -> list[str]:
     """Start shipped graph ``name``, wait for camera content in its phosphene frames, stop it
@@ -78,8 +96,7 @@ def _stop_cleanly(i: int, name: str, overrides: list[str], graph, probe, tmp_pat
     logs = {"terminal": g.output}
     logs.update({str(p.relative_to(workdir)): p.read_text(errors="replace")
                  for p in (workdir / "ros_log").rglob("*.log")})
-    lines = [f"{name} {where}: {line}" for where, text in logs.items() for line in text.splitlines()
-             if NOISE.search(line)]
+    lines = [f"{name} {where}: {line}" for where, text in logs.items() for line in _noisy(text)]
     print(f"{name}: up after {up:.1f} s, stopped {time.monotonic() - t0 - up:.1f} s later, exit {code}, "
           f"{len(lines)} noisy lines (load {os.getloadavg()[0]:.1f})")
     assert code == 0, f"{name}: exit {code}\n{g.output[-3000:]}"
