@@ -124,7 +124,7 @@ def driver_costs(sdk: str, path: Path) -> tuple[list[float], list[float], str]:
             t1 = time.perf_counter()
             array_to_image(frame.color, "rgb8")
             array_to_image(depth_for_encoding(frame, "32FC1"), "32FC1")
-            intrinsics_to_camera_info(frame.intrinsics)
+            intrinsics_to_camera_info(frame.intrinsics, distortion=frame.distortion)
             t2 = time.perf_counter()
             read.append(driver.frame_ms)
             convert.append(1e3 * (t2 - t1))

@@ -126,9 +126,9 @@ class CameraNode(RaspvNode):
             logger.info(message)
 
     def _camera_info(self, frame: RgbdFrame, header) -> CameraInfo:
-        key = (frame.intrinsics, self.params["frame_id"])
+        key = (frame.intrinsics, frame.distortion, self.params["frame_id"])
         if self._info_cache is None or self._info_cache[0] != key:
-            self._info_cache = (key, intrinsics_to_camera_info(frame.intrinsics))
+            self._info_cache = (key, intrinsics_to_camera_info(frame.intrinsics, distortion=frame.distortion))
         info = self._info_cache[1]
         info.header = header
         return info

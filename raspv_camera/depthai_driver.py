@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from raspv_camera import sdk_imports
+from raspv_camera import lens_distortion, sdk_imports
 from raspv_camera.camera_driver import CameraDriver, CameraSettings
 from raspv_camera.rgbd_frame import (CameraError, DeviceInfo, DeviceLost, EndOfRecording, ImuSample, NoDevice,
                                      RgbdFrame)
@@ -50,6 +50,12 @@ def _intrinsics(frame) -> CameraIntrinsics | None:
     if K.shape != (3, 3) or not (K[0, 0] > 0 and K[1, 1] > 0):
         return None
     return CameraIntrinsics.from_matrix(K, frame.getWidth(), frame.getHeight())
+
+
+def _distortion(frame) -> tuple[float, ...]:
+    """The frame's lens distortion as OpenCV coefficients (its ImgTransformation's model)."""
+    t = frame.getTransformation()
+    return lens_distortion.from_depthai(t.getDistortionModel().name, list(t.getDistortionCoefficients()))
 
 
 class ImuCalibrationError(CameraError):
@@ -80,6 +86,7 @@ class DepthAIDriver(CameraDriver):
         self.imu_queue = None
         self.imu_rotation: np.ndarray | None = None    # IMU → colour optical frame, from the calibration
         self.intrinsics: CameraIntrinsics | None = None
+        self._said_distortion = False
         self._pending: dict[str, dict[int, object]] = {"depth": {}, "color": {}}
         self._unclassified: list[tuple[Path, object]] = []
 
@@ -283,7 +290,19 @@ class DepthAIDriver(CameraDriver):
             K = K.scaled(rgb.shape[1], rgb.shape[0])
         self.intrinsics = K
         return RgbdFrame(color=rgb, depth=d, depth_units=0.001, intrinsics=K,
-                         sensor_time=color.getTimestampDevice().total_seconds(), frame_number=int(color.getSequenceNum()))
+                         sensor_time=color.getTimestampDevice().total_seconds(), frame_number=int(color.getSequenceNum()),
+                         distortion=self._colour_distortion(color))
+
+    def _colour_distortion(self, color) -> tuple[float, ...]:
+        """The colour lens's OpenCV coefficients; one a CameraInfo cannot carry is said once and
+        the images are published as rectified."""
+        try:
+            return _distortion(color)
+        except lens_distortion.UnsupportedDistortion as exc:
+            if not self._said_distortion:
+                print(f"camera: DepthAI colour {exc}: publishing it as rectified", file=sys.stderr, flush=True)
+                self._said_distortion = True
+            return ()
 
     def close(self) -> None:
         if self.pipeline is not None:

@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from raspv_camera import sdk_imports
+from raspv_camera import lens_distortion, sdk_imports
 from raspv_camera.camera_driver import CameraDriver, CameraSettings
 from raspv_camera.frame_pairing import FramePairer, pair_tolerance
 from raspv_camera.rgbd_frame import (CameraError, DeviceInfo, DeviceLost, EndOfRecording, ImuSample, NoDevice,
@@ -67,6 +67,7 @@ class RealSenseDriver(CameraDriver):
         self.sensors: list = []
         self.depth_units = 0.001
         self.intrinsics: CameraIntrinsics | None = None
+        self.distortion: tuple[float, ...] = ()
         self.profiles: dict = {}
         self._imu_rotation: dict = {}
         self._video: queue.Queue = queue.Queue(maxsize=VIDEO_QUEUE)
@@ -103,6 +104,7 @@ class RealSenseDriver(CameraDriver):
             raise CameraError(f"{self.settings.file or 'the device'} has no {missing} stream")
         color = self.profiles[rs.stream.color]
         self.intrinsics = _intrinsics(color)
+        self.distortion = self._distortion(color)
         self.depth_units = float(self.dev.first_depth_sensor().get_depth_scale())
         self._imu_rotation = {k: _rotation_to(self.profiles[k], color) for k in (rs.stream.accel, rs.stream.gyro)
                               if k in self.profiles}
@@ -128,6 +130,24 @@ class RealSenseDriver(CameraDriver):
         details = {"firmware": _info(rs, self.dev, "firmware_version"), "usb": _info(rs, self.dev, "usb_type_descriptor")}
         self.device = DeviceInfo(self.sdk, ident, name, {k: v for k, v in details.items() if v})
         return self.device
+
+    def _distortion(self, color) -> tuple[float, ...]:
+        """The colour lens's OpenCV coefficients (the depth is aligned to colour); a model with
+        none, or a poor fit, is said once on stdout and passed on as rectified/fitted."""
+        i = color.as_video_stream_profile().get_intrinsics()
+        model = str(i.model).split(".")[-1]
+
+        def project(points):
+            return [self.rs.rs2_project_point_to_pixel(i, [float(v) for v in p]) for p in points]
+        try:
+            coefficients, residual = lens_distortion.from_realsense(model, list(i.coeffs), self.intrinsics, project)
+        except lens_distortion.UnsupportedDistortion as exc:
+            print(f"realsense: {exc}: publishing the colour camera as rectified", flush=True)
+            return ()
+        if residual > lens_distortion.FIT_TOLERANCE_PX:
+            print(f"realsense: colour lens model {model} fitted as OpenCV's to within {residual:.2f} px only",
+                  flush=True)
+        return coefficients
 
     def _find_device(self):
         rs = self.rs
@@ -246,7 +266,7 @@ class RealSenseDriver(CameraDriver):
         # (a queue, a test) must not hold the SDK's memory
         return RgbdFrame(color=np.array(self._rgb(c)), depth=np.array(d.get_data()), depth_units=self.depth_units,
                          intrinsics=self.intrinsics, sensor_time=c.get_timestamp() * 1e-3,
-                         frame_number=int(c.get_frame_number()))
+                         frame_number=int(c.get_frame_number()), distortion=self.distortion)
 
     def _rgb(self, frame) -> np.ndarray:
         rs = self.rs

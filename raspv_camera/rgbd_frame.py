@@ -37,7 +37,9 @@ class RgbdFrame:
     ``color`` (H, W, 3) uint8 RGB; ``depth`` (H, W) uint16 in ``depth_units`` metres per unit
     (0 = no reading), registered to colour; ``intrinsics`` of the colour camera (and so of the
     registered depth); ``sensor_time`` the device's own timestamp of the frame [s] on the
-    device clock (or the recording's); ``frame_number`` the device's counter.
+    device clock (or the recording's); ``frame_number`` the device's counter; ``distortion`` the
+    colour lens's OpenCV coefficients (k1 k2 p1 p2 k3 [k4 k5 k6], :mod:`raspv_camera.lens_distortion`),
+    ``()`` for rectified images.
     """
 
     color: np.ndarray
@@ -46,6 +48,7 @@ class RgbdFrame:
     intrinsics: CameraIntrinsics
     sensor_time: float
     frame_number: int = 0
+    distortion: tuple[float, ...] = ()
 
     def depth_metres(self) -> np.ndarray:
         """Depth as float32 metres with NaN where there is no reading."""

@@ -46,10 +46,12 @@ def write_realsense_recording(path: str | Path, frames: Iterable[SourceFrame], c
                               depth_camera: CameraIntrinsics | None = None, depth_units: float = 0.001,
                               fps: int = 30, depth_to_color_m: Sequence[float] = (0.0, 0.0, 0.0),
                               name: str = "RASPV software device", serial: str = "000000000000",
-                              with_accel: bool = False) -> Path:
+                              with_accel: bool = False, color_lens: tuple[str, Sequence[float]] | None = None) -> Path:
     """Record ``frames`` through a RealSense software device with the SDK's recorder. Depth and
     colour have their own intrinsics (depth defaults to colour's) and the depth camera sits at
-    ``depth_to_color_m`` in the colour frame (no rotation). Returns the file written."""
+    ``depth_to_color_m`` in the colour frame (no rotation); ``color_lens`` the colour stream's
+    librealsense distortion model name and five coefficients (none by default). Returns the file
+    written."""
     rs = sdk_imports.realsense()
     path = Path(path)
     if path.suffix != ".db3":
@@ -63,7 +65,8 @@ def write_realsense_recording(path: str | Path, frames: Iterable[SourceFrame], c
     color_sensor = dev.add_sensor("RGB Camera")
     depth_sensor.add_read_only_option(rs.option.depth_units, float(depth_units))
     d_prof = depth_sensor.add_video_stream(_video_stream(rs, rs.stream.depth, 0, depth_camera, fps, 2, rs.format.z16))
-    c_prof = color_sensor.add_video_stream(_video_stream(rs, rs.stream.color, 1, color_camera, fps, 3, rs.format.rgb8))
+    c_prof = color_sensor.add_video_stream(_video_stream(rs, rs.stream.color, 1, color_camera, fps, 3, rs.format.rgb8,
+                                                         color_lens))
     ext = rs.extrinsics()
     ext.rotation = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
     ext.translation = [float(v) for v in depth_to_color_m]
@@ -116,11 +119,13 @@ def write_realsense_recording(path: str | Path, frames: Iterable[SourceFrame], c
     return path
 
 
-def _video_stream(rs, kind, uid: int, K: CameraIntrinsics, fps: int, bpp: int, fmt):
+def _video_stream(rs, kind, uid: int, K: CameraIntrinsics, fps: int, bpp: int, fmt,
+                  lens: tuple[str, Sequence[float]] | None = None):
     intr = rs.intrinsics()
     intr.width, intr.height = K.width, K.height
     intr.fx, intr.fy, intr.ppx, intr.ppy = K.fx, K.fy, K.cx, K.cy
-    intr.model, intr.coeffs = rs.distortion.none, [0.0] * 5
+    model, coeffs = lens or ("none", [0.0] * 5)
+    intr.model, intr.coeffs = getattr(rs.distortion, model), [float(c) for c in coeffs]
     vs = rs.video_stream()
     vs.type, vs.index, vs.uid = kind, 0, uid
     vs.width, vs.height, vs.fps, vs.bpp, vs.fmt, vs.intrinsics = K.width, K.height, fps, bpp, fmt, intr
@@ -220,7 +225,7 @@ def write_openni2_dummy_recording(path: str | Path, frames: int = 30) -> tuple[P
 
 
 # -- DepthAI -------------------------------------------------------------------------------------
-def _imgframe(dai, data: np.ndarray, kind, seq: int, t: float, K: CameraIntrinsics):
+def _imgframe(dai, data: np.ndarray, kind, seq: int, t: float, K: CameraIntrinsics, lens: Sequence[float] = ()):
     f = dai.ImgFrame()
     h, w = data.shape[:2]
     f.setWidth(w)
@@ -232,15 +237,20 @@ def _imgframe(dai, data: np.ndarray, kind, seq: int, t: float, K: CameraIntrinsi
     stamp = datetime.timedelta(seconds=float(t))
     f.setTimestamp(stamp)
     f.setTimestampDevice(stamp)
-    f.setTransformation(dai.ImgTransformation(w, h, K.K.tolist()))
+    transformation = dai.ImgTransformation(w, h, K.K.tolist())
+    if len(lens):
+        transformation.setDistortionModel(dai.CameraModel.Perspective)
+        transformation.setDistortionCoefficients([float(c) for c in lens] + [0.0] * (14 - len(lens)))
+    f.setTransformation(transformation)
     return f
 
 
 def write_depthai_recording(directory: str | Path, frames: Iterable[SourceFrame], camera: CameraIntrinsics,
-                            pace_s: float = 0.0) -> Path:
+                            pace_s: float = 0.0, lens: Sequence[float] = ()) -> Path:
     """Record RGB-D ``frames`` (depth in mm, registered to colour, both described by
-    ``camera``) with DepthAI host-only ``RecordMessage`` nodes into ``directory``
-    (``depth.mcap`` RAW16, ``color.mcap`` RGB888i). ``pace_s`` waits between frames."""
+    ``camera`` and the OpenCV distortion coefficients ``lens``) with DepthAI host-only
+    ``RecordMessage`` nodes into ``directory`` (``depth.mcap`` RAW16, ``color.mcap`` RGB888i).
+    ``pace_s`` waits between frames."""
     dai = sdk_imports.depthai()
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
@@ -253,8 +263,9 @@ def write_depthai_recording(directory: str | Path, frames: Iterable[SourceFrame]
         q_color = rec_color.input.createInputQueue(maxSize=8, blocking=True)
         pipeline.start()
         for i, f in enumerate(frames):
-            q_depth.send(_imgframe(dai, np.asarray(f.depth, np.uint16), dai.ImgFrame.Type.RAW16, i, f.time, camera))
-            q_color.send(_imgframe(dai, np.asarray(f.color, np.uint8), dai.ImgFrame.Type.RGB888i, i, f.time, camera))
+            q_depth.send(_imgframe(dai, np.asarray(f.depth, np.uint16), dai.ImgFrame.Type.RAW16, i, f.time, camera, lens))
+            q_color.send(_imgframe(dai, np.asarray(f.color, np.uint8), dai.ImgFrame.Type.RGB888i, i, f.time, camera,
+                                   lens))
             if pace_s:
                 time.sleep(pace_s)
         # let the recorders take what is queued: createInputQueue puts a host InputQueue node

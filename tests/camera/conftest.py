@@ -15,6 +15,7 @@ from raspv_common.intrinsics import CameraIntrinsics
 T0 = 50.0            # recording clock of the first frame [s]
 RATE = 30.0          # frames per second of the recordings
 GRAVITY_C = np.array([0.0, -9.6, 2.0])     # accelerometer at rest in C: camera pitched down ~12°
+DEPTHAI_LENS = (0.1, -0.2, 0.001, 0.002, 0.05, 0.01, 0.02, 0.03)   # OpenCV's rational model (8 coefficients)
 
 
 @dataclass
@@ -61,7 +62,7 @@ def openni2_recording(tmp_path_factory):
 def depthai_recording(tmp_path_factory) -> Recording:
     frames = pattern_frames(20)
     K = CameraIntrinsics(160, 120, 150.0, 150.0, 80.0, 60.0)
-    path = write_depthai_recording(tmp_path_factory.mktemp("dai") / "pattern", frames, K)
+    path = write_depthai_recording(tmp_path_factory.mktemp("dai") / "pattern", frames, K, lens=DEPTHAI_LENS)
     return Recording(path, frames, K)
 
 

@@ -10,7 +10,7 @@ from raspv_common import frames, topics
 from raspv_common.conversions import camera_info_to_intrinsics, image_to_array, stamp_to_seconds, transform_to_matrix
 from raspv_common.qos import TF_STATIC_LISTENER_QOS
 
-from .conftest import GRAVITY_C, RATE, needs_openni2
+from .conftest import DEPTHAI_LENS, GRAVITY_C, RATE, needs_openni2
 
 pytestmark = pytest.mark.integration
 
@@ -108,6 +108,9 @@ def test_depthai_recording(graph, probe, depthai_recording):
         i = depths[mm.tobytes()]                                        # RAW16 → metres → mm, exact
         assert np.array_equal(image_to_array(c), rec.frames[i].color)
     assert camera_info_to_intrinsics(got[topics.DEPTH_INFO][0]) == rec.camera
+    for t in (topics.CAMERA_INFO, topics.DEPTH_INFO):          # the lens's distortion, as ROS names it
+        info = got[t][0]
+        assert info.distortion_model == "rational_polynomial" and list(info.d) == pytest.approx(DEPTHAI_LENS, abs=1e-7)
 
 
 def test_no_camera_is_reported_and_retried_while_the_graph_runs(graph, probe, tmp_path, realsense_recording):

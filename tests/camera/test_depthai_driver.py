@@ -9,6 +9,8 @@ from raspv_camera.camera_driver import CameraSettings
 from raspv_camera.depthai_driver import DepthAIDriver, ImuCalibrationError, imu_to_camera_rotation
 from raspv_camera.rgbd_frame import EndOfRecording, NoDevice
 
+from .conftest import DEPTHAI_LENS
+
 
 def read_all(d, limit=200, stall_s=60.0):
     out = []
@@ -37,6 +39,7 @@ def test_raw16_depth_colour_intrinsics_and_stamps_come_back_exactly(depthai_reco
         assert np.array_equal(f.depth, src.depth) and f.depth.dtype == np.uint16   # RAW16 bit-exact
         assert np.array_equal(f.color, src.color)
         assert f.intrinsics == rec.camera and f.depth_units == 0.001
+        assert f.distortion == pytest.approx(DEPTHAI_LENS, abs=1e-7)      # the lens, as float32 in the recording
         assert f.sensor_time == pytest.approx(src.time, abs=1e-6)
 
 
