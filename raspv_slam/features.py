@@ -92,28 +92,27 @@ class FeatureExtractor:
 
 
 class DescriptorMatcher:
-    """Brute-force Hamming matching with Lowe's ratio test and an absolute distance bound."""
+    """Brute-force Hamming matching with Lowe's ratio test and an absolute distance bound.
+
+    The two nearest train descriptors of each query come from ``cv2.batchDistance`` (what
+    ``cv2.BFMatcher.knnMatch`` computes, as arrays: no ``DMatch`` object per pair), so the ratio
+    test runs vectorised."""
 
     def __init__(self, config: SlamConfig) -> None:
         self.ratio = config.match_ratio
         self.max_distance = config.max_hamming
-        self._bf = cv2.BFMatcher(cv2.NORM_HAMMING)
 
     def match(self, query: np.ndarray, train: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Index pairs (query indices, train indices) of the unambiguous matches, each train
         descriptor used at most once (the closest query wins)."""
         if len(query) < 2 or len(train) < 2:
             return np.zeros(0, int), np.zeros(0, int)
-        pairs = self._bf.knnMatch(query, train, k=2)
-        q, t, d = [], [], []
-        for m in pairs:
-            if len(m) == 2 and m[0].distance <= self.max_distance and m[0].distance < self.ratio * m[1].distance:
-                q.append(m[0].queryIdx)
-                t.append(m[0].trainIdx)
-                d.append(m[0].distance)
-        if not q:
+        dist, nearest = cv2.batchDistance(query, train, cv2.CV_32S, normType=cv2.NORM_HAMMING, K=2)
+        d0, d1 = dist[:, 0], dist[:, 1]
+        q = np.flatnonzero((d0 <= self.max_distance) & (d0 < self.ratio * d1))
+        if not len(q):
             return np.zeros(0, int), np.zeros(0, int)
-        q, t, d = np.array(q), np.array(t), np.array(d)
+        t, d = nearest[q, 0].astype(int), d0[q]
         order = np.lexsort((d, t))                   # per train index, the closest first
         first = np.ones(len(order), bool)
         first[1:] = t[order][1:] != t[order][:-1]

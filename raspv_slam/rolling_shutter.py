@@ -21,8 +21,6 @@ Frames: C the camera optical frame (x right, y down, z forward); ω in C [rad/s]
 """
 from __future__ import annotations
 
-from functools import lru_cache
-
 import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -86,24 +84,24 @@ def correct_features(uv: np.ndarray, points: np.ndarray, raw_rows: np.ndarray, K
     return np.column_stack([u, v]).astype(np.float32), p.astype(np.float32)
 
 
-@lru_cache(maxsize=4)
-def _ray_grid(K: CameraIntrinsics) -> np.ndarray:
-    """Rays (H, W, 3) float32 with z = 1 through every pixel centre."""
-    v, u = np.mgrid[0:K.height, 0:K.width].astype(np.float64)
-    return K.rays(u.ravel(), v.ravel()).reshape(K.height, K.width, 3).astype(np.float32)
-
-
 def correct_images(rgb: np.ndarray | None, depth: np.ndarray | None, K: CameraIntrinsics, omega: np.ndarray,
                    readout: float) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The small colour and depth images (intrinsics ``K``) re-sampled as the mid-frame camera
     would see them. Depth values are turned too: a point seen at depth d along the row camera's ray
     q (R_vᵀ·r for the mid-frame ray r, z = 1) is at z = d / q_z in the mid-frame camera (a degree of
-    turn moves a point 1.5 m to the side by 2.6 cm in depth, several times the Kinect's noise at 2 m)."""
-    R = row_rotations(np.arange(K.height) + 0.5, K.height, omega, readout).astype(np.float32)   # per output row
-    src = np.matmul(_ray_grid(K), R)                                  # rows of rays times R_v: R_vᵀ·ray, mid → row
-    inv_z = 1.0 / src[..., 2]
-    mx = (K.fx * src[..., 0] * inv_z + K.cx).astype(np.float32)
-    my = (K.fy * src[..., 1] * inv_z + K.cy).astype(np.float32)
+    turn moves a point 1.5 m to the side by 2.6 cm in depth, several times the Kinect's noise at 2 m).
+
+    Along an output row v the mid-frame ray r = (x(u), y_v, 1) is affine in x(u) = (u − cx)/fx, so
+    q = R_vᵀ·r = x(u)·R_v[0] + (y_v·R_v[1] + R_v[2]) (rows of R_v): the maps are outer products,
+    not a 3×3 product per pixel."""
+    R = row_rotations(np.arange(K.height) + 0.5, K.height, omega, readout)     # per output row
+    x = ((np.arange(K.width) - K.cx) / K.fx).astype(np.float32)[None, :]
+    y = (np.arange(K.height) - K.cy) / K.fy
+    slope = R[:, 0, :].astype(np.float32)                                   # (H, 3): dq/dx of each row
+    offset = (y[:, None] * R[:, 1, :] + R[:, 2, :]).astype(np.float32)      # (H, 3): q at x = 0
+    inv_z = 1.0 / (offset[:, 2:3] + slope[:, 2:3] * x)
+    mx = (offset[:, 0:1] + slope[:, 0:1] * x) * inv_z * np.float32(K.fx) + np.float32(K.cx)
+    my = (offset[:, 1:2] + slope[:, 1:2] * x) * inv_z * np.float32(K.fy) + np.float32(K.cy)
     out_rgb = None if rgb is None else cv2.remap(rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     out_depth = None if depth is None else \
         cv2.remap(depth, mx, my, cv2.INTER_NEAREST, borderValue=float("nan")) * inv_z
