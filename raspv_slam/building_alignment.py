@@ -82,7 +82,7 @@ class AlignmentGuess:
 
 @dataclass(frozen=True)
 class BuildingAlignment:
-    """B ← M: M's origin at (x, y) [m] in B, its x axis at ``yaw_deg`` [deg]; ``score`` the
+    """B ← M: M's origin at (x, y) [m] in B, its x axis at ``yaw_deg`` [deg, −180..180]; ``score`` the
     placement's score (see the module docstring), ``matched`` the share of the SLAM map's occupied
     cells within 2σ of a building wall, ``runner_up_score`` the best distinct placement's score."""
 
@@ -307,4 +307,4 @@ def _refine(cand, occ, free, field: _Field, walls: _Field, cfg: AlignmentConfig)
                                                   [x0, y0, yaw0 + 1.5]])})
     x, y, yaw = result.x
     score, matched = _placement_score(result.x, occ, free, field, walls, cfg)
-    return BuildingAlignment(float(x), float(y), float(yaw % 360.0), score, matched)
+    return BuildingAlignment(float(x), float(y), math.remainder(float(yaw), 360.0), score, matched)   # in [-180, 180]
