@@ -61,6 +61,10 @@ class SlamConfig:
     # -- pose graph (GTSAM): edge noise of a dense RGB-D registration between keyframes
     edge_sigma_translation: float = 0.01   # [m]
     edge_sigma_rotation_deg: float = 0.5
+    local_window_keyframes: int = 30    # the loop closer's per-keyframe optimisation moves the sub-map's last N
+                                        # keyframes (their neighbours held); the whole sub-map at a loop (ORB-SLAM)
+    whole_graph_sigmas: float = 1.0     # a new edge out of that window disagreeing with the map by more than this
+                                        # many σ (translation or rotation) is a loop: the whole sub-map is optimised
     # -- resources
     threads: int = 1                    # OpenCV and Open3D threads (process-wide); 1 = one core
     background: bool = True             # loop closing in a background thread (False: inline, for tests)
@@ -71,7 +75,8 @@ class SlamConfig:
                     "max_frame_translation", "max_frame_rotation_deg", "keyframe_translation",
                     "keyframe_rotation_deg", "vocabulary_words", "loop_candidates", "loop_min_inliers",
                     "relocalise_min_inliers",
-                    "edge_sigma_translation", "edge_sigma_rotation_deg", "reprojection_px", "threads")
+                    "edge_sigma_translation", "edge_sigma_rotation_deg", "reprojection_px", "threads",
+                    "local_window_keyframes", "whole_graph_sigmas")
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")

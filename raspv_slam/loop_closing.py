@@ -14,9 +14,16 @@ For each keyframe the tracker makes (:meth:`LoopCloser.submit`):
    with the relocalisation's stricter ``relocalise_min_inliers``; a verified one merges the two
    sub-maps: the younger is re-expressed in the older's frame by the one rigid transform the
    edge gives (:meth:`SlamMap.merge_segments`) and the edge joins the pose graph;
-5. the pose graph of the keyframe's sub-map (GTSAM, graduated non-convexity) is optimised,
-   edges it judges outliers are dropped and the map's poses replaced; tracking applies the
-   correction at its next frame.
+5. the pose graph (GTSAM, graduated non-convexity) is optimised, edges it judges outliers are
+   dropped and the map's poses replaced; tracking applies the correction at its next frame.
+   **Locally** for most keyframes: the sub-map's last ``local_window_keyframes`` keyframes move,
+   the keyframes they share edges with are held at their poses — a cost that does not grow with
+   the map (ORB-SLAM's local window; the whole graph per keyframe fell minutes behind a walk
+   through new places). **The whole sub-map** when a loop edge or a merge was added, or when a
+   new edge reaching outside the window disagrees with the map by more than
+   ``whole_graph_sigmas`` of its noise (a loop closed by covisibility): a correction that must
+   spread along the loop. Either way the same graduated non-convexity judges every edge it
+   holds, so a wrong loop edge is dropped as before.
 
 The thread runs at the tracker's pace: it never holds the map's lock while it computes, so
 tracking does not wait for it (``background=False`` in the config runs it inline, for tests).
@@ -46,15 +53,17 @@ class LoopCloser:
         self.registrar = registrar
         self.preparer = preparer
         self.config = config
-        self._queue: queue.Queue[int] = queue.Queue()
+        self._queue: queue.Queue[tuple[int, float]] = queue.Queue()     # (keyframe, submitted [monotonic s])
         self._thread: threading.Thread | None = None
         self._solver = PoseGraphProcess() if config.background else None
         self.loop_edges = 0
         self.covisibility_edges = 0
         self.optimisations = 0
+        self.whole_graph_optimisations = 0       # of the optimisations, those over the whole sub-map
         self.merges = 0
         self.rejected: list[Edge] = []          # judged outliers by the optimisation (removed from the map)
         self.busy_ms: list[float] = []          # time spent per keyframe [ms]
+        self.latency_ms: list[float] = []       # submitted to processed, per keyframe [ms] (waiting included)
         self.error: BaseException | None = None
 
     def submit(self, kf_id: int) -> None:
@@ -64,20 +73,26 @@ class LoopCloser:
         if self._thread is None:
             self._thread = threading.Thread(target=self._run, name="slam-loop-closing", daemon=True)
             self._thread.start()
-        self._queue.put(kf_id)
+        self._queue.put((kf_id, time.monotonic()))
 
     def _run(self) -> None:
         while True:
-            kf_id = self._queue.get()
+            kf_id, submitted = self._queue.get()
             try:
                 if kf_id == STOP:
                     return
                 if self.error is None:
                     self.process(kf_id)
+                    self.latency_ms.append((time.monotonic() - submitted) * 1e3)
             except BaseException as exc:       # kept and re-raised in the tracking thread by check()
                 self.error = exc
             finally:
                 self._queue.task_done()
+
+    @property
+    def backlog(self) -> int:
+        """Keyframes waiting (not yet being processed)."""
+        return self._queue.qsize()
 
     @property
     def busy(self) -> bool:
@@ -112,7 +127,7 @@ class LoopCloser:
                 except queue.Empty:
                     break
                 self._queue.task_done()
-            self._queue.put(STOP)
+            self._queue.put((STOP, 0.0))
             self._thread.join()
             self._thread = None
         if self._solver is not None:
@@ -120,8 +135,6 @@ class LoopCloser:
 
     # -- one keyframe -------------------------------------------------------------------------
     def process(self, kf_id: int) -> None:
-        import time
-
         t0 = time.perf_counter()
         c = self.config
         m = self.map
@@ -132,6 +145,7 @@ class LoopCloser:
         segment = m.segment_of(kf_id)
         new_loop = False
         added = 0
+        reaching = []                             # new covisibility edges, for the whole-graph test
         near = m.covisible(pose, c.covisible_overlap, exclude={kf_id, parent}, segment=segment)
         for other in near[:c.covisible_keyframes]:
             guess = inverse(m.pose(other)) @ pose
@@ -140,6 +154,7 @@ class LoopCloser:
                 m.add_edge(edge)
                 added += 1
                 self.covisibility_edges += 1
+                reaching.append(edge)
         segments = m.segments()
         own = set(segments.get(segment, ()))
         recent = {k for k in m.keyframes if k > kf_id - c.loop_exclude_recent}
@@ -158,18 +173,42 @@ class LoopCloser:
             added += 1
             new_loop = True
         if added:
-            members = set(m.segments().get(segment, ()))
-            with m.lock:
-                edges = list(m.edges)
-            poses = {k: p for k, p in m.poses().items() if k in members}
-            optimised, outliers = optimise(poses, edges, c, fixed=min(poses), solver=self._solver)
-            m.remove_edges(outliers)
-            self.rejected.extend(outliers)
-            new_loop = new_loop and any(e.kind == "loop" and e.b == kf_id for e in edges if e not in outliers)
-            moved = max(pose_distance(poses[k], optimised[k])[0] for k in optimised)
-            m.apply_correction(optimised, closed_loop=new_loop and moved > 1e-3)
-            self.optimisations += 1
+            self.optimise_after(kf_id, new_loop, reaching)
         self.busy_ms.append((time.perf_counter() - t0) * 1e3)
+
+    def optimise_after(self, kf_id: int, new_loop: bool, new_edges: list[Edge]) -> int:
+        """Optimise the pose graph after keyframe ``kf_id`` got edges (``new_loop``: a loop edge or
+        a merge among them; ``new_edges``: its new covisibility edges): the whole sub-map or its
+        local window (module docstring). Returns the keyframes the optimisation could move."""
+        c = self.config
+        m = self.map
+        members = set(m.segments().get(m.segment_of(kf_id), ())) - set(m.transient)
+        window = set(sorted(k for k in members if k <= kf_id)[-c.local_window_keyframes:])
+        with m.lock:
+            edges = list(m.edges)
+        if new_loop or any(self._disagrees(e) for e in new_edges if e.a not in window):
+            poses = {k: p for k, p in m.poses().items() if k in members}
+            held = {min(poses)}
+            self.whole_graph_optimisations += 1
+        else:
+            edges = [e for e in edges if e.a in window or e.b in window]
+            held = (({e.a for e in edges} | {e.b for e in edges}) - window) & members or {min(window)}
+            poses = {k: m.pose(k) for k in window | held}
+        optimised, outliers = optimise(poses, edges, c, solver=self._solver, held=held)
+        m.remove_edges(outliers)
+        self.rejected.extend(outliers)
+        new_loop = new_loop and any(e.kind == "loop" and e.b == kf_id for e in edges if e not in outliers)
+        moved = max(pose_distance(poses[k], optimised[k])[0] for k in optimised)
+        m.apply_correction(optimised, closed_loop=new_loop and moved > 1e-3)
+        self.optimisations += 1
+        return len(poses) - len(held)
+
+    def _disagrees(self, edge: Edge) -> bool:
+        """The map's poses disagree with a new edge by more than ``whole_graph_sigmas`` of its noise
+        (translation or rotation): closing it must move more than the local window."""
+        c = self.config
+        dt, dr = pose_distance(self.map.pose(edge.a) @ edge.a_from_b, self.map.pose(edge.b))
+        return dt > c.whole_graph_sigmas * c.edge_sigma_translation or dr > c.whole_graph_sigmas * c.edge_sigma_rotation_deg
 
     def _merge(self, kf_id: int, segment: int, own: set[int]) -> bool:
         """Look for the keyframe's place in the other sub-maps; when one is verified, merge the

@@ -3,7 +3,9 @@
 Nodes: keyframe poses S ← K (``gtsam.Pose3``). Factors: one ``BetweenFactorPose3`` per edge
 (a ← b measured by registration) with a diagonal noise model from the config (rotation σ,
 translation σ: the spread of a registration between keyframes); the first keyframe is held by a
-tight prior (the gauge).
+tight prior (the gauge). A *local* optimisation (``held``: the keyframes around a window, held
+at their poses by the same tight priors) moves only the window's keyframes: its cost does not grow
+with the map (the loop closer's per-keyframe step, :mod:`loop_closing`).
 
 Loop and covisibility edges passed geometric verification, but a wrong one would bend the whole
 map, and a robust kernel (Huber, Cauchy) also holds back a *right* loop edge that closes a large
@@ -36,37 +38,46 @@ EDGE_KINDS = ("odometry", "covisibility", "loop")
 
 
 def optimise(poses: dict[int, np.ndarray], edges: list[Edge], config: SlamConfig, fixed: int | None = None,
-             solver: "PoseGraphProcess | None" = None) -> tuple[dict[int, np.ndarray], list[Edge]]:
+             solver: "PoseGraphProcess | None" = None,
+             held: set[int] | None = None) -> tuple[dict[int, np.ndarray], list[Edge]]:
     """(optimised poses (same keys as ``poses``), the edges judged outliers). Edges naming
-    unknown keyframes are skipped. ``solver``: solve in that process instead of this one."""
+    unknown keyframes, or only keyframes that are held, are skipped. ``fixed``: the gauge
+    (default the smallest id); ``held``: keyframes kept at their poses (a local optimisation;
+    default just the gauge). ``solver``: solve in that process instead of this one."""
     if not poses:
         return {}, []
     ids = sorted(poses)
-    used = [e for e in edges if e.a in poses and e.b in poses and e.a != e.b]
+    held = {min(poses) if fixed is None else fixed} if not held else set(held)
+    used = [e for e in edges if e.a in poses and e.b in poses and e.a != e.b
+            and not (e.a in held and e.b in held)]
     problem = (np.array(ids, np.int64), np.array([poses[k] for k in ids], np.float64).reshape(-1, 4, 4),
                np.array([e.a for e in used], np.int64), np.array([e.b for e in used], np.int64),
                np.array([e.a_from_b for e in used], np.float64).reshape(-1, 4, 4),
                np.array([EDGE_KINDS.index(e.kind) for e in used], np.int8),
                math.radians(config.edge_sigma_rotation_deg), config.edge_sigma_translation,
-               min(poses) if fixed is None else fixed)
+               np.array(sorted(held), np.int64))
     solved, outlier = solver.solve(problem) if solver is not None else solve(*problem)
     return {k: solved[i] for i, k in enumerate(ids)}, [e for e, out in zip(used, outlier) if out]
 
 
-def solve(ids, poses, a, b, a_from_b, kinds, sigma_rotation, sigma_translation, fixed,
+def solve(ids, poses, a, b, a_from_b, kinds, sigma_rotation, sigma_translation, held,
           max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray]:
-    """The optimisation on plain arrays: (poses (N, 4, 4) in the order of ``ids``, outlier flag per edge)."""
+    """The optimisation on plain arrays: (poses (N, 4, 4) in the order of ``ids``, outlier flag per
+    edge); ``held``: ids kept at their poses by tight priors (at least the gauge)."""
     import gtsam
 
     graph = gtsam.NonlinearFactorGraph()
     initial = gtsam.Values()
     for k, T in zip(ids, poses):
         initial.insert(int(k), gtsam.Pose3(T))
-    graph.add(gtsam.PriorFactorPose3(int(fixed), gtsam.Pose3(poses[list(ids).index(fixed)]),
-                                     gtsam.noiseModel.Isotropic.Sigma(6, PRIOR_SIGMA)))
+    index = {int(k): i for i, k in enumerate(ids)}
+    prior = gtsam.noiseModel.Isotropic.Sigma(6, PRIOR_SIGMA)
+    for k in np.atleast_1d(held):
+        graph.add(gtsam.PriorFactorPose3(int(k), gtsam.Pose3(poses[index[int(k)]]), prior))
+    priors = graph.size()
     r, t = sigma_rotation, sigma_translation
     noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([r, r, r, t, t, t]))
-    known_inliers = [0]
+    known_inliers = list(range(priors))
     for ea, eb, T, kind in zip(a, b, a_from_b, kinds):
         if EDGE_KINDS[kind] == "odometry":
             known_inliers.append(graph.size())
@@ -83,7 +94,7 @@ def solve(ids, poses, a, b, a_from_b, kinds, sigma_rotation, sigma_translation, 
         optimizer = gtsam.GncLMOptimizer(graph, initial, params)
         optimizer.setInlierCostThresholdsAtProbability(INLIER_PROBABILITY)
         result = optimizer.optimize()
-        outlier = np.asarray(optimizer.getWeights())[1:] < 0.5
+        outlier = np.asarray(optimizer.getWeights())[priors:] < 0.5
     return np.array([result.atPose3(int(k)).matrix() for k in ids]).reshape(-1, 4, 4), outlier
 
 

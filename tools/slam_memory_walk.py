@@ -10,9 +10,9 @@ closer, saves the map (the node does so every ``autosave_period``) and prints th
 phase. ``--trajectory`` writes the final trajectory (TUM format) for ``tools/slam_walk_report.py``,
 ``--online`` the poses as tracking gave them frame by frame (what the node publishes).
 
-The loop closer optimises the whole pose graph for every keyframe that gets an edge, so on a
-large map it falls behind tracking. ``--drain-limit S``: wait at most S seconds for it after the
-last frame; then the map is saved as it is (the keyframes are all there; edges and corrections
+At the last frame it also prints how many keyframes the loop closer has processed and their
+latency (made to processed, waiting included) and time spent, p50 / p95. ``--drain-limit S``:
+wait at most S seconds for the loop closer after the last frame; then the map is saved as it is (the keyframes are all there; edges and corrections
 still waiting are not), the final trajectory is not written and the waiting keyframes are
 dropped (nothing else in the core stops a backlog).
 
@@ -134,23 +134,25 @@ def measure(frames, intrinsics, config, args) -> int:
             if i % args.every == 0:
                 own, total = sampler.read()
                 lc = slam.loop_closer
-                backlog = lc._queue.qsize() if lc is not None else 0
+                backlog = lc.backlog if lc is not None else 0
                 print(f"frame {i} t {f.stamp - first_stamp:.1f} s: {len(slam.map)} keyframes, "
-                      f"loop-closer backlog {backlog}, resident {own:.0f} MB (+children {total:.0f} MB), "
+                      f"loop-closer backlog {backlog} ({len(lc.busy_ms) if lc is not None else 0} processed), resident {own:.0f} MB (+children {total:.0f} MB), "
                       f"peaks {sampler.peak_own:.0f} / {sampler.peak_total:.0f} MB, {slam.counts}, "
                       f"{time.monotonic() - start:.0f} s", flush=True)
         walk = sampler.phase()
+        if slam.loop_closer is not None:
+            print(f"loop closer at the last frame: {_loop_closer_line(slam.loop_closer)}", flush=True)
         if args.online:
             write_trajectory(args.online, np.array(online_stamps), np.array(online_poses).reshape(-1, 4, 4))
         t0 = time.monotonic()
         lc = slam.loop_closer
-        backlog = lc._queue.qsize() if lc is not None else 0
+        backlog = lc.backlog if lc is not None else 0
         while lc is not None and lc.busy and (args.drain_limit is None or time.monotonic() - t0 < args.drain_limit):
             time.sleep(0.5)
         drained = lc is None or not lc.busy
         drain = sampler.phase()
         print(f"walk: peaks {walk[0]:.0f} / {walk[1]:.0f} MB (own / with the pose-graph process); loop-closer backlog "
-              f"{backlog} keyframes at the last frame, {'drained' if drained else 'NOT drained, still ' + str(lc._queue.qsize())}"
+              f"{backlog} keyframes at the last frame, {'drained' if drained else 'NOT drained, still ' + str(lc.backlog)}"
               f" after {time.monotonic() - t0:.0f} s, peaks {drain[0]:.0f} / {drain[1]:.0f} MB", flush=True)
         if args.map:
             t0 = time.monotonic()
@@ -162,8 +164,7 @@ def measure(frames, intrinsics, config, args) -> int:
         lc = slam.loop_closer
         print(f"done: {len(slam.map)} keyframes, {len(slam.map.edges)} edges "
               f"({sum(e.kind == 'loop' for e in slam.map.edges)} loop), map {slam.map.nbytes / MB:.0f} MB in keyframes "
-              f"and place database; loop closer {lc.optimisations if lc else 0} optimisations, "
-              f"{(sum(lc.busy_ms) / 1e3) if lc else 0:.0f} s busy; {slam.counts}; "
+              f"and place database; loop closer {_loop_closer_line(lc) if lc else 'none'}; {slam.counts}; "
               f"{time.monotonic() - start:.0f} s", flush=True)
     finally:
         if not drained:
@@ -171,6 +172,16 @@ def measure(frames, intrinsics, config, args) -> int:
         slam.close()
         sampler.stop()
     return 0
+
+
+def _loop_closer_line(lc) -> str:
+    """Keyframes processed, latency and time per keyframe (p50 / p95 [ms]), optimisations."""
+    latency = np.array(lc.latency_ms) if lc.latency_ms else np.zeros(1)
+    busy = np.array(lc.busy_ms) if lc.busy_ms else np.zeros(1)
+    return (f"{len(lc.busy_ms)} keyframes processed, latency p50 {np.percentile(latency, 50):.0f} / p95 "
+            f"{np.percentile(latency, 95):.0f} ms, time p50 {np.percentile(busy, 50):.0f} / p95 "
+            f"{np.percentile(busy, 95):.0f} ms ({busy.sum() / 1e3:.0f} s busy), {lc.optimisations} optimisations "
+            f"({lc.whole_graph_optimisations} of the whole graph), {lc.loop_edges} loop edges, {len(lc.rejected)} rejected")
 
 
 def _until_stopped(frames, start: float, max_seconds: float | None):
