@@ -8,7 +8,9 @@ Every ``--every`` frames it prints the frame, its stamp, the keyframes, the loop
 (keyframes waiting), the resident sets and their peaks so far; at the end it waits for the loop
 closer, saves the map (the node does so every ``autosave_period``) and prints the peaks of each
 phase. ``--trajectory`` writes the final trajectory (TUM format) for ``tools/slam_walk_report.py``,
-``--online`` the poses as tracking gave them frame by frame (what the node publishes).
+``--online`` the poses as tracking gave them frame by frame (what the node publishes);
+``--realtime`` feeds the frames at the pace of their stamps, as a camera would (the loop closer
+gets the CPU tracking leaves, as in the node), instead of as fast as they are tracked.
 
 At the last frame it also prints how many keyframes the loop closer has processed and their
 latency (made to processed, waiting included) and time spent, p50 / p95. ``--drain-limit S``:
@@ -83,6 +85,8 @@ def parser() -> argparse.ArgumentParser:
     parser.add_argument("--online", help="write the poses as tracking gave them here (TUM format)")
     parser.add_argument("--drain-limit", type=float, help="wait at most this long [s] for the loop closer at the end")
     parser.add_argument("--frames", type=int, help="only the first N frames")
+    parser.add_argument("--realtime", action="store_true",
+                        help="feed the frames at their stamps' pace (as a camera would; default: as fast as tracked)")
     parser.add_argument("--max-seconds", type=float,
                         help="stop feeding frames after this long [s] (as Ctrl-C does), then drain, save and report")
     return parser
@@ -123,6 +127,8 @@ def measure(frames, intrinsics, config, args) -> int:
             if args.frames is not None and i >= args.frames:
                 break
             first_stamp = f.stamp if i == 0 else first_stamp
+            if args.realtime:
+                time.sleep(max(0.0, (f.stamp - first_stamp) - (time.monotonic() - start)))
             r = slam.process(f.stamp, f.rgb, f.depth)
             if r.map_from_camera is not None and r.map_id == 0:
                 online_stamps.append(f.stamp)
