@@ -76,6 +76,11 @@ class LoopCloser:
         self._queue.put((kf_id, time.monotonic()))
 
     def _run(self) -> None:
+        if self._solver is not None:
+            try:
+                self._solver.start()              # ready by the first optimisation, a few keyframes later
+            except OSError:
+                pass                              # the first optimisation tries again and reports it
         while True:
             kf_id, submitted = self._queue.get()
             try:

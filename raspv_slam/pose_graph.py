@@ -99,19 +99,27 @@ def solve(ids, poses, a, b, a_from_b, kinds, sigma_rotation, sigma_translation, 
 
 
 class PoseGraphProcess:
-    """:func:`solve` in a child process (started on first use, stopped by :meth:`close`)."""
+    """:func:`solve` in a child process (started by :meth:`start` or on first use, stopped by
+    :meth:`close`). The child imports GTSAM as it starts: a new interpreter importing numpy and
+    GTSAM takes about a second on an idle machine and several under load, which the first
+    optimisation waited for when the process was started by it (the first loop correction of a
+    run landed seconds late: 8-14 s on the node's pan test under load 12)."""
 
     def __init__(self) -> None:
         self._conn = None
         self._process = None
 
-    def solve(self, problem: tuple) -> tuple[np.ndarray, np.ndarray]:
+    def start(self) -> None:
+        """Start the child now (it gets ready while the caller goes on); no-op when running."""
         if self._process is None:
             ctx = multiprocessing.get_context("spawn")       # no fork of a process with threads
             self._conn, child = ctx.Pipe()
             self._process = ctx.Process(target=_serve, args=(child,), name="slam-pose-graph", daemon=True)
             self._process.start()
             child.close()
+
+    def solve(self, problem: tuple) -> tuple[np.ndarray, np.ndarray]:
+        self.start()
         self._conn.send(problem)
         try:
             ok, payload = self._conn.recv()
@@ -136,6 +144,7 @@ class PoseGraphProcess:
 
 def _serve(conn) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)       # the parent stops it (Ctrl-C reaches the whole group)
+    import gtsam  # noqa: F401  (ready before the first problem comes)
     while True:
         try:
             problem = conn.recv()

@@ -100,6 +100,19 @@ class SlamMap:
                 self.parent[kf.id] = parent
                 self.edges.append(Edge(parent, kf.id, np.array(parent_from_kf, dtype=np.float64), "odometry"))
 
+    def replace_view(self, kf_id: int, features, images: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Replace a keyframe's features (same descriptors, e.g. turned to mid-row time) and, when
+        given, its compressed (colour, depth) images; its pose, edges and place entry stay."""
+        from dataclasses import replace
+
+        with self.lock:
+            kf = self.keyframes[kf_id]
+            if len(features) != len(kf.features):
+                raise ValueError(f"keyframe {kf_id} has {len(kf.features)} features, got {len(features)}")
+            color, depth = images if images is not None else (kf.color_jpeg, kf.depth_png)
+            self.keyframes[kf_id] = replace(kf, features=features, color_jpeg=color, depth_png=depth)
+            self._frames.pop(kf_id, None)
+
     def prune_transient(self, keep_last: int, keep: set = frozenset()) -> None:
         """Drop the oldest transient keyframes beyond ``keep_last`` (but those in ``keep``)."""
         with self.lock:

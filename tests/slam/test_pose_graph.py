@@ -129,3 +129,23 @@ def test_keyframes_chained_on_their_parents_stay_rigid():
     R = m.pose(79)[:3, :3]
     np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-9)
     np.testing.assert_allclose(m.pose(79), expected, atol=1e-9)
+
+
+def test_the_pose_graph_process_is_started_ahead_of_its_first_problem():
+    """The loop closer starts the solver's process when its thread starts, so the first loop
+    correction does not wait for a new interpreter to import GTSAM (seconds under load)."""
+    from raspv_slam.pose_graph import PoseGraphProcess
+
+    truth = square_walk(n_side=2)
+    edges, poses = drifted(truth, 1.0)
+    solver = PoseGraphProcess()
+    try:
+        solver.start()
+        assert solver._process is not None and solver._process.is_alive()
+        started = solver._process.pid
+        solver.start()                                       # idempotent
+        optimised, outliers = optimise(poses, edges, SlamConfig(), fixed=0, solver=solver)
+        assert solver._process.pid == started and not outliers and set(optimised) == set(poses)
+    finally:
+        solver.close()
+    assert solver._process is None
