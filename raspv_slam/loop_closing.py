@@ -3,9 +3,12 @@ pose-graph optimisation (no ROS).
 
 For each keyframe the tracker makes (:meth:`LoopCloser.submit`):
 1. it is indexed in the place database (which learns its vocabulary as the map grows);
-2. **covisibility**: the keyframes sharing most of its view (their 3-D points projected into
-   it with the current poses) are registered to it (PnP + dense refinement from the poses' relative guess); each success is
-   an edge;
+2. **covisibility**: the older keyframes sharing most of its view (their 3-D points projected
+   into it with the current poses) are registered to it (PnP + dense refinement from the poses'
+   relative guess); each success is an edge. Only older ones: a keyframe made after it links to
+   it when its own turn comes, so each pair is linked once and the graph is the same however far
+   the thread lags behind tracking (lagging, it linked a keyframe to its own child too, the
+   odometry edge counted twice, and the pan's floor point ended 4.8 or 5.0 cm off by the lag);
 3. **loop**: the place database's best candidates that are not recent and not already linked
    are verified with PnP RANSAC (at least ``loop_min_inliers`` inliers, no pose guess: the
    drift may be large) and dense refinement; each success is a loop edge (robust kernel);
@@ -151,7 +154,8 @@ class LoopCloser:
         new_loop = False
         added = 0
         reaching = []                             # new covisibility edges, for the whole-graph test
-        near = m.covisible(pose, c.covisible_overlap, exclude={kf_id, parent}, segment=segment)
+        near = [k for k in m.covisible(pose, c.covisible_overlap, exclude={kf_id, parent}, segment=segment)
+                if k < kf_id]                     # the ones made after it link to it themselves (at any lag)
         for other in near[:c.covisible_keyframes]:
             guess = inverse(m.pose(other)) @ pose
             edge = self._verify(kf_id, other, guess, c.min_inliers, "covisibility")
