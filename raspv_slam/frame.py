@@ -125,17 +125,14 @@ class FramePreparer:
             return self._frame(stamp, features, small_rgb, small_depth, as_seen=as_seen)
         return self._frame(stamp, features, small_rgb, small_depth)
 
-    def corrected(self, frame: Frame, omega: np.ndarray, images: bool = False) -> Frame:
+    def corrected(self, frame: Frame, omega: np.ndarray) -> Frame:
         """``frame`` (made by :meth:`prepare` for a rolling-shutter camera without a rate) with its
         keypoints and their 3-D points turned to mid-row time by the rotation rate ``omega`` (3,)
         in C [rad/s] measured after its first registration; its small images stay as seen (with the
         measured rate the re-sampled images made the 10 Hz tracking worse: fr1/rpy ATE 2.5 -> 3.9
-        cm, docs/slam.md) unless ``images`` (as :meth:`prepare` corrects a frame with a predicted
-        rate). ValueError for a frame that kept nothing to correct."""
+        cm, docs/slam.md). ValueError for a frame that kept nothing to correct."""
         if frame.as_seen is None:
             raise ValueError("this frame cannot be corrected (no rolling-shutter readout, or no colour)")
-        if images:
-            return self._corrected(frame.stamp, frame.as_seen, omega)
         features = frame.as_seen[0]
         if len(features):
             uv, points = correct_features(features.keypoints, features.points, features.keypoints[:, 1] + 0.5,

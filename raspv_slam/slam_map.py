@@ -100,17 +100,16 @@ class SlamMap:
                 self.parent[kf.id] = parent
                 self.edges.append(Edge(parent, kf.id, np.array(parent_from_kf, dtype=np.float64), "odometry"))
 
-    def replace_view(self, kf_id: int, features, images: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        """Replace a keyframe's features (same descriptors, e.g. turned to mid-row time) and, when
-        given, its compressed (colour, depth) images; its pose, edges and place entry stay."""
+    def replace_features(self, kf_id: int, features) -> None:
+        """Replace a keyframe's features by the same ones moved (e.g. turned to mid-row time: same
+        descriptors); its images, pose, edges and place entry stay."""
         from dataclasses import replace
 
         with self.lock:
             kf = self.keyframes[kf_id]
             if len(features) != len(kf.features):
                 raise ValueError(f"keyframe {kf_id} has {len(kf.features)} features, got {len(features)}")
-            color, depth = images if images is not None else (kf.color_jpeg, kf.depth_png)
-            self.keyframes[kf_id] = replace(kf, features=features, color_jpeg=color, depth_png=depth)
+            self.keyframes[kf_id] = replace(kf, features=features)
             self._frames.pop(kf_id, None)
 
     def prune_transient(self, keep_last: int, keep: set = frozenset()) -> None:
