@@ -33,7 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=30.0, help="measurement window of each run [s] (default 30)")
     parser.add_argument("--warmup", type=float, default=8.0, help="time after the first phosphene image before "
                         "measuring [s] (default 8)")
-    parser.add_argument("--quick", action="store_true", help="only the run with the live views, 8 s (tests)")
+    parser.add_argument("--quick", action="store_true",
+                        help="only the run with the live views, 4 s after 3 s of warm-up (tests)")
     parser.add_argument("--max-rate", type=float, default=0.0, metavar="HZ",
                         help="the foxglove node's max_rate (default 0: every message)")
 
@@ -124,15 +125,16 @@ def run(args: argparse.Namespace) -> int:
     from raspv_bringup.testing import claim_private_domain
 
     claim_private_domain()                 # its graphs never meet another run's (it used the caller's domain)
-    seconds = 8.0 if args.quick else args.seconds
+    seconds = 4.0 if args.quick else args.seconds
+    warmup = min(args.warmup, 3.0) if args.quick else args.warmup
     runs = [True] if args.quick else [False, True]
     results = {}
     with tempfile.TemporaryDirectory(prefix="raspv-bench-foxglove-") as tmp:
         for with_views in runs:
             label = "with viz + foxglove" if with_views else "plain demo graph"
-            print(f"raspv bench foxglove: {label}, {seconds:.0f} s after {args.warmup:.0f} s of warm-up ...", flush=True)
+            print(f"raspv bench foxglove: {label}, {seconds:.0f} s after {warmup:.0f} s of warm-up ...", flush=True)
             try:
-                results[with_views] = r = measure(with_views, seconds, args.warmup, Path(tmp) / label.replace(" ", "_"),
+                results[with_views] = r = measure(with_views, seconds, warmup, Path(tmp) / label.replace(" ", "_"),
                                                   args.max_rate)
             except (GraphFailed, TimeoutError) as exc:
                 print(f"raspv bench foxglove: the graph failed: {exc}")

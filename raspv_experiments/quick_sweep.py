@@ -115,28 +115,23 @@ def session_seeds(sweep: Sweep) -> dict[tuple[int, str, str, int], int]:
 
 def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
                     progress: Callable[[str], None] | None = print,
-                    only: set[tuple[int, str, str, int]] | None = None) -> list[QuickTrialRecord]:
+                    only: set[tuple[int, str, str, int]] | None = None, workers: int = 1) -> list[QuickTrialRecord]:
     """Every trial of ``sweep`` with :func:`quick_trial`, in order (subject, then its conditions);
     each row appended to ``out_csv`` (flushed) as the trial ends. ``only``: just these trials
-    (subject, condition, task, repetition), each seeded as in the whole sweep (a sample re-run)."""
-    from raspv_experiments.quick_trial import quick_trial
-
+    (subject, condition, task, repetition), each seeded as in the whole sweep (a sample re-run).
+    ``workers`` > 1: the trials run on that many worker processes (spawned; each trial is seeded
+    on its own, so the records are the same), rows written and returned in the same order."""
     problems = check_quick(sweep)
     if problems:
         raise ValueError("\n".join(problems))
-    sim = _graph_params(sweep, "sim")
-    spv_base = _graph_params(sweep, "spv")
-    size = (int(sim.get("width", 160)), int(sim.get("height", 120)))
-    rate = float(sim.get("rate", 10.0))
-    reps = sweep.protocol.design.repetitions
-    plan = [(s, c, t, r) for s in sweep.subjects for c in sweep.protocol.conditions for t in sweep.protocol.tasks
-            for r in range(1, reps + 1)]
+    plan = [(s, c.name, t.name, r) for s in sweep.subjects for c in sweep.protocol.conditions
+            for t in sweep.protocol.tasks for r in range(1, sweep.protocol.design.repetitions + 1)]
     seeds = session_seeds(sweep)
     if only is not None:
         missing = sorted(set(only) - set(seeds))
         if missing:
             raise ValueError(f"{sweep.path}: no such trials in the sweep: {missing}")
-        plan = [k for k in plan if (k[0], k[1].name, k[2].name, k[3]) in only]
+        plan = [k for k in plan if k in only]
     records: list[QuickTrialRecord] = []
     writer, handle = None, None
     if out_csv is not None:
@@ -145,35 +140,57 @@ def run_quick_sweep(sweep: Sweep, out_csv: str | Path | None = None,
         writer = csv.DictWriter(handle, fieldnames=COLUMNS)
         writer.writeheader()
     started = time.monotonic()
+
+    def done(rec: QuickTrialRecord) -> None:
+        records.append(rec)
+        if writer is not None:
+            writer.writerow(rec.row())
+            handle.flush()
+        if progress is not None:
+            i, elapsed = len(records), time.monotonic() - started
+            eta = elapsed / i * (len(plan) - i)
+            progress(f"[{i}/{len(plan)}] S{rec.subject:02d} {rec.condition} {rec.task} r{rec.repetition}: "
+                     f"{'goal' if rec.success else 'time limit'} {rec.duration_s:.1f} s, {rec.collisions} collisions "
+                     f"({rec.wall_s:.0f} s; elapsed {elapsed / 60:.1f} min, ETA {eta / 60:.1f} min)")
     try:
-        for i, (subject, cond, task, rep) in enumerate(plan, 1):
-            config = subject_config(sweep, subject, seeds[(subject, cond.name, task.name, rep)])
-            spv = {**spv_base, **cond.params.get("spv", {}), "headless": True}
-            t0 = time.monotonic()
-            res = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
-                              (task.goal.x, task.goal.y, task.goal.radius), task.time_limit, spv=spv,
-                              policy=sweep.policy, config=config, rate=rate, size=size,
-                              goal_knowledge=sweep.protocol.goal_knowledge, sim_params=sim,
-                              policy_kw={"model": sweep.subject_params["model"]}
-                              if sweep.policy == "learned" and sweep.subject_params.get("model") else None)
-            length = float(np.hypot(*np.diff(np.asarray(res.path), axis=0).T).sum()) if len(res.path) > 1 else 0.0
-            rec = QuickTrialRecord(subject, cond.name, dict(cond.factors), task.name, rep, res.success,
-                                   res.time_s if res.success else math.nan, res.time_s, res.collisions, length,
-                                   res.phosphenes, time.monotonic() - t0)
-            records.append(rec)
-            if writer is not None:
-                writer.writerow(rec.row())
-                handle.flush()
-            if progress is not None:
-                elapsed = time.monotonic() - started
-                eta = elapsed / i * (len(plan) - i)
-                progress(f"[{i}/{len(plan)}] S{subject:02d} {cond.name} {task.name} r{rep}: "
-                         f"{'goal' if rec.success else 'time limit'} {rec.duration_s:.1f} s, {rec.collisions} collisions "
-                         f"({rec.wall_s:.0f} s; elapsed {elapsed / 60:.1f} min, ETA {eta / 60:.1f} min)")
+        if workers > 1 and len(plan) > 1:
+            import concurrent.futures as cf
+            import multiprocessing
+
+            with cf.ProcessPoolExecutor(max_workers=min(workers, len(plan)),
+                                        mp_context=multiprocessing.get_context("spawn")) as pool:
+                for rec in pool.map(run_quick_trial, [sweep] * len(plan), plan, [seeds[k] for k in plan]):
+                    done(rec)                                # in the plan's order
+        else:
+            for key in plan:
+                done(run_quick_trial(sweep, key, seeds[key]))
     finally:
         if handle is not None:
             handle.close()
     return records
+
+
+def run_quick_trial(sweep: Sweep, key: tuple[int, str, str, int], seed: int) -> QuickTrialRecord:
+    """One trial of ``sweep`` (subject, condition, task, repetition) with its session ``seed``."""
+    from raspv_experiments.quick_trial import quick_trial
+
+    subject, cond_name, task_name, rep = key
+    cond = next(c for c in sweep.protocol.conditions if c.name == cond_name)
+    task = next(t for t in sweep.protocol.tasks if t.name == task_name)
+    sim = _graph_params(sweep, "sim")
+    spv = {**_graph_params(sweep, "spv"), **cond.params.get("spv", {}), "headless": True}
+    t0 = time.monotonic()
+    res = quick_trial(task.world, (task.start_x, task.start_y, math.radians(task.start_yaw_deg)),
+                      (task.goal.x, task.goal.y, task.goal.radius), task.time_limit, spv=spv,
+                      policy=sweep.policy, config=subject_config(sweep, subject, seed),
+                      rate=float(sim.get("rate", 10.0)), size=(int(sim.get("width", 160)), int(sim.get("height", 120))),
+                      goal_knowledge=sweep.protocol.goal_knowledge, sim_params=sim,
+                      policy_kw={"model": sweep.subject_params["model"]}
+                      if sweep.policy == "learned" and sweep.subject_params.get("model") else None)
+    length = float(np.hypot(*np.diff(np.asarray(res.path), axis=0).T).sum()) if len(res.path) > 1 else 0.0
+    return QuickTrialRecord(subject, cond.name, dict(cond.factors), task.name, rep, res.success,
+                            res.time_s if res.success else math.nan, res.time_s, res.collisions, length,
+                            res.phosphenes, time.monotonic() - t0)
 
 
 @dataclass

@@ -126,7 +126,7 @@ def test_the_representation_decides_whether_they_get_past_the_crate():
 
     sweep = load_sweep(REPO / "experiments" / "example_sweep.yaml")
     sweep.subjects = [1, 2, 3, 4]
-    records = run_quick_sweep(sweep, progress=None)
+    records = run_quick_sweep(sweep, progress=None, workers=2)          # the suite's second core
     depth = [r for r in records if r.condition == "depth"]
     grey = [r for r in records if r.condition == "downsampling"]
     assert len(depth) == len(grey) == 4

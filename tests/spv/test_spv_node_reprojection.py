@@ -18,6 +18,7 @@ from raspv_common.intrinsics import CameraIntrinsics
 from raspv_common.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
 from raspv_msgs.msg import PhospheneFrame
 from raspv_spv.reprojection import OPTICAL_IN_HEAD
+from raspv_bringup.testing import RunningGraph
 
 pytestmark = pytest.mark.integration
 
@@ -126,22 +127,35 @@ def _first_frame(src, frames, of):
     pytest.fail("the spv node never showed a frame")
 
 
+@pytest.fixture(scope="module")
+def one_hz_display(tmp_path_factory, ros_domain):
+    """An spv node with a 1 Hz display (waiting for the tick would take up to a second), started
+    once for the three cases below; each sets its temporal model and display_on_input at run time."""
+    g = RunningGraph({"launch": {"nodes": [{"kind": "spv"}]},
+                      "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": False,
+                                                  "temporal_update": "recursive", "rate": 1.0, "stale_inputs": False,
+                                                  "display_on_input": True, "camera_source": "sim"}}},
+                     tmp_path_factory.mktemp("one_hz_display"))
+    yield g
+    code = g.stop()
+    assert code == 0, f"the spv graph ended with exit code {code}:\n{g.output[-3000:]}"
+
+
 @pytest.mark.parametrize("temporal, follow", [(False, True), (False, False), ("recursive", True)],
                          ids=["model off", "model off, not following", "recursive model"])
-def test_a_head_turn_is_shown_at_once_not_at_the_next_tick(graph, probe, temporal, follow):
-    # a 1 Hz display: waiting for the tick would take up to a second. The recursive temporal model
-    # is advanced by the real time of each frame: the display follows its input with it on too
-    graph({"launch": {"nodes": [{"kind": "spv"}]},
-           "spv": {"ros__parameters": {"device": "optimist", "width": 200, "mode": "grey", "temporal": bool(temporal),
-                                       "temporal_update": temporal or "recursive",
-                                       "rate": 1.0, "stale_inputs": False, "display_on_input": follow,
-                                       "camera_source": "sim"}}})
+def test_a_head_turn_is_shown_at_once_not_at_the_next_tick(one_hz_display, probe, temporal, follow):
+    # The recursive temporal model is advanced by the real time of each frame: the display follows
+    # its input with it on too
+    results = probe.set_params("spv", {"temporal": bool(temporal), "temporal_update": temporal or "recursive",
+                                       "display_on_input": follow})
+    assert all(ok for _, ok, _ in results), results
     frames = probe.subscribe(topics.SPV_FRAME, PhospheneFrame)
     src = Source(probe)
     src.head.publish(head_msg(probe, 0.0))
 
-    def of(stamp):
-        return lambda f: abs(stamp_to_seconds(f.source_stamp) - stamp) < 1e-6 and max(f.levels) > 0
+    def of(stamp):                  # (a frame of the simulator with this case's model: rebuilt in the background)
+        return lambda f: (abs(stamp_to_seconds(f.source_stamp) - stamp) < 1e-6 and max(f.levels) > 0
+                          and f.temporal == bool(temporal))
     t0, still = _first_frame(src, frames, of)
     delays = []
     for yaw in (15.0, 0.0, 15.0):
