@@ -81,7 +81,10 @@ def test_the_page_draws_what_the_spv_node_renders(graph, probe):
                     compared = 0
                     for _ in range(60):                      # three frames with phosphenes lit
                         drawn = pg.evaluate("() => window.raspvClient.readImage()")
-                        try:                                 # (drawn before the images started: skip it)
+                        if drawn["stamp"] < stamp_to_seconds(images.messages[0].header.stamp) - 1e-6:
+                            time.sleep(0.1)                  # drawn before the images started: none will
+                            continue                         # come for it (it waited 5 s for nothing)
+                        try:
                             server = images.wait(1, timeout=5, predicate=lambda im, t=drawn["stamp"]:
                                                  abs(stamp_to_seconds(im.header.stamp) - t) < 1e-6)[0]
                         except TimeoutError:
