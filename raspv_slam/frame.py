@@ -30,15 +30,24 @@ class Frame:
     small_rgb: np.ndarray | None        # (h, w, 3) uint8 at config.dense_scale (None without colour)
     small_depth: np.ndarray | None      # (h, w) float32 metres, NaN = no reading (None without depth)
     dense: DenseImage | None            # for dense registration (None without depth)
-    sharpness: float = 0.0              # variance of the Laplacian of the small grey image (blur lowers it)
     rate: np.ndarray | None = None      # the rotation rate (3,) in C [rad/s] it was corrected to mid-row time by
     as_seen: tuple | None = field(default=None, repr=False)   # a rolling-shutter frame's (features, small
                                         # colour, small depth) before any correction (FramePreparer.corrected)
     _probe: np.ndarray | None = field(default=None, repr=False)
+    _sharpness: float | None = field(default=None, repr=False)
 
     @property
     def has_depth(self) -> bool:
         return self.small_depth is not None
+
+    @property
+    def sharpness(self) -> float:
+        """Variance of the Laplacian of the small grey image (blur lowers it; 0 without colour).
+        Computed when first asked: only the frames a keyframe is chosen among need it."""
+        if self._sharpness is None:
+            self._sharpness = 0.0 if self.small_rgb is None else \
+                float(cv2.Laplacian(cv2.cvtColor(self.small_rgb, cv2.COLOR_RGB2GRAY), cv2.CV_32F).var())
+        return self._sharpness
 
     def probe_points(self, intrinsics: CameraIntrinsics) -> np.ndarray:
         """3-D points (N, 3) in C on a regular grid of the small depth image (every
@@ -138,8 +147,8 @@ class FramePreparer:
             uv, points = correct_features(features.keypoints, features.points, features.keypoints[:, 1] + 0.5,
                                           self.intrinsics, omega, self.config.rolling_shutter_readout)
             features = Features(uv, features.descriptors, points, features.octaves)
-        return Frame(frame.stamp, features, frame.small_rgb, frame.small_depth, frame.dense, frame.sharpness,
-                     rate=np.asarray(omega, np.float64), as_seen=frame.as_seen)
+        return Frame(frame.stamp, features, frame.small_rgb, frame.small_depth, frame.dense,
+                     rate=np.asarray(omega, np.float64), as_seen=frame.as_seen, _sharpness=frame._sharpness)
 
     def _corrected(self, stamp: float, as_seen: tuple, omega: np.ndarray) -> Frame:
         features, small_rgb, small_depth = as_seen
@@ -156,10 +165,7 @@ class FramePreparer:
                small_depth: np.ndarray | None, as_seen: tuple | None = None,
                rate: np.ndarray | None = None) -> Frame:
         dense = self.dense_image(small_rgb, small_depth) if small_depth is not None else None
-        sharpness = 0.0
-        if small_rgb is not None:
-            sharpness = float(cv2.Laplacian(cv2.cvtColor(small_rgb, cv2.COLOR_RGB2GRAY), cv2.CV_32F).var())
-        return Frame(stamp, features, small_rgb, small_depth, dense, sharpness, rate=rate, as_seen=as_seen)
+        return Frame(stamp, features, small_rgb, small_depth, dense, rate=rate, as_seen=as_seen)
 
     def keyframe_frame(self, kf) -> Frame:
         """A keyframe as a :class:`Frame` to register against (its images decoded)."""

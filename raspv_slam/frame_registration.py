@@ -28,6 +28,8 @@ target is usually a keyframe (its features carry 3-D points), the source the fra
 """
 from __future__ import annotations
 
+import threading
+from collections import deque
 from dataclasses import dataclass
 
 import cv2
@@ -44,6 +46,8 @@ DEPTH_NOISE_Z2 = 1.42e-3      # σ_z / z² of structured-light depth [1/m] (Khos
 DEPTH_SLACK = 0.01            # depth-to-colour registration and interpolation [m]
 MIN_DENSE_FITNESS = 0.05      # share of the source's depth pixels the dense registration matched
 PNP_START_INLIERS = 8         # a PnP pose with fewer inliers than trusted is still a start for the dense step
+RECENT_MATCHES = 4            # descriptor matchings remembered per thread (a frame registered again after its
+                              # rolling-shutter correction keeps its descriptors: the same matches)
 
 
 @dataclass
@@ -73,13 +77,29 @@ class FrameRegistrar:
         self.dense = dense
         self.wide_dense = wide_dense or dense
         self.matcher = DescriptorMatcher(config)
+        self._recent = threading.local()         # the loop closer's thread registers with this registrar too
+
+    def match(self, source: Features, target: Features) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(source indices, target indices, the target's indices with depth): ``source``'s
+        descriptors matched to those of ``target``'s features that have a 3-D point; the last few
+        matchings are reused for the same target and the same source descriptors (a source's
+        keypoints moved by a correction keep their descriptors)."""
+        recent = getattr(self._recent, "matches", None)
+        if recent is None:
+            recent = self._recent.matches = deque(maxlen=RECENT_MATCHES)
+        for src, tgt, found in recent:
+            if src is source.descriptors and tgt is target:
+                return found
+        idx3d = target.with_depth
+        qi, ti = self.matcher.match(source.descriptors, target.descriptors[idx3d])
+        recent.append((source.descriptors, target, (qi, ti, idx3d)))
+        return qi, ti, idx3d
 
     def pnp(self, source: Features, target: Features, min_inliers: int) -> tuple[np.ndarray | None, int]:
         """(target ← source from PnP, inliers), (None, inliers) when it failed."""
-        idx3d = target.with_depth
-        if len(source) < min_inliers or len(idx3d) < min_inliers:
+        if len(source) < min_inliers or len(target.with_depth) < min_inliers:
             return None, 0
-        qi, ti = self.matcher.match(source.descriptors, target.descriptors[idx3d])
+        qi, ti, idx3d = self.match(source, target)
         if len(qi) < min_inliers:
             return None, len(qi)
         obj = target.points[idx3d[ti]].astype(np.float64)
