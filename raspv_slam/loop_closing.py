@@ -63,6 +63,8 @@ class LoopCloser:
         self.covisibility_edges = 0
         self.optimisations = 0
         self.whole_graph_optimisations = 0       # of the optimisations, those over the whole sub-map
+        self.whole_graph_for_loops = 0           # of those, the ones for a loop edge or a merge (the rest: an
+                                                 # edge out of the window disagreeing with the map)
         self.merges = 0
         self.rejected: list[Edge] = []          # judged outliers by the optimisation (removed from the map)
         self.busy_ms: list[float] = []          # time spent per keyframe [ms]
@@ -199,6 +201,7 @@ class LoopCloser:
             poses = {k: p for k, p in m.poses().items() if k in members}
             held = {min(poses)}
             self.whole_graph_optimisations += 1
+            self.whole_graph_for_loops += bool(new_loop)
         else:
             edges = [e for e in edges if e.a in window or e.b in window]
             held = (({e.a for e in edges} | {e.b for e in edges}) - window) & members or {min(window)}

@@ -187,7 +187,7 @@ def _loop_closer_line(lc) -> str:
     return (f"{len(lc.busy_ms)} keyframes processed, latency p50 {np.percentile(latency, 50):.0f} / p95 "
             f"{np.percentile(latency, 95):.0f} ms, time p50 {np.percentile(busy, 50):.0f} / p95 "
             f"{np.percentile(busy, 95):.0f} ms ({busy.sum() / 1e3:.0f} s busy), {lc.optimisations} optimisations "
-            f"({lc.whole_graph_optimisations} of the whole graph), {lc.loop_edges} loop edges, {len(lc.rejected)} rejected")
+            f"({lc.whole_graph_optimisations} of the whole graph, {lc.whole_graph_for_loops} for a loop or merge), {lc.loop_edges} loop edges, {len(lc.rejected)} rejected")
 
 
 def _until_stopped(frames, start: float, max_seconds: float | None):
