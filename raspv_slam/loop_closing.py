@@ -203,7 +203,9 @@ class LoopCloser:
             self.whole_graph_optimisations += 1
             self.whole_graph_for_loops += bool(new_loop)
         else:
-            edges = [e for e in edges if e.a in window or e.b in window]
+            # keyframes made after this one (a lagging thread) follow their parents (apply_correction):
+            # held, they became the gauge and the map's first keyframe moved (2.5 cm on the pan)
+            edges = [e for e in edges if (e.a in window or e.b in window) and max(e.a, e.b) <= kf_id]
             held = (({e.a for e in edges} | {e.b for e in edges}) - window) & members or {min(window)}
             poses = {k: m.pose(k) for k in window | held}
         optimised, outliers = optimise(poses, edges, c, solver=self._solver, held=held)

@@ -92,3 +92,19 @@ def test_an_edge_out_of_the_window_that_disagrees_closes_the_loop_over_the_whole
     assert closer.optimise_after(last, False, [edge]) == len(truth) - 1
     assert closer.whole_graph_optimisations == 1 and closer.whole_graph_for_loops == 0
     assert max(motion_error(truth[k], m.pose(k))[0] for k in range(len(truth))) < 0.02
+
+
+def test_keyframes_made_after_the_one_optimised_follow_it_and_the_first_stays():
+    """A loop closer behind tracking optimises keyframe 3 while 4 and 5 exist: they move with their
+    parent, and the map's first keyframe stays (held, they had become the gauge and moved it)."""
+    truth = square_walk(n_side=2)[:6]
+    closer, m = _closer(truth, bias_deg=0.3)
+    before = m.poses()
+    edge = Edge(0, 3, inverse(truth[0]) @ truth[3], "covisibility")       # the truth: disagrees with the drift
+    m.add_edge(edge)
+    closer.optimise_after(3, False, [edge])
+    after = m.poses()
+    np.testing.assert_allclose(after[0], before[0], atol=1e-6)
+    assert motion_error(after[3], before[3])[1] > 0.1                     # the window moved
+    for k in (4, 5):                                                       # rigidly with keyframe 3
+        np.testing.assert_allclose(inverse(after[3]) @ after[k], inverse(before[3]) @ before[k], atol=1e-6)
