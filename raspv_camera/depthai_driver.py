@@ -52,12 +52,6 @@ def _intrinsics(frame) -> CameraIntrinsics | None:
     return CameraIntrinsics.from_matrix(K, frame.getWidth(), frame.getHeight())
 
 
-def _distortion(frame) -> tuple[float, ...]:
-    """The frame's lens distortion as OpenCV coefficients (its ImgTransformation's model)."""
-    t = frame.getTransformation()
-    return lens_distortion.from_depthai(t.getDistortionModel().name, list(t.getDistortionCoefficients()))
-
-
 class ImuCalibrationError(CameraError):
     """The device's calibration has no usable IMU → colour camera rotation."""
 
@@ -294,10 +288,11 @@ class DepthAIDriver(CameraDriver):
                          distortion=self._colour_distortion(color))
 
     def _colour_distortion(self, color) -> tuple[float, ...]:
-        """The colour lens's OpenCV coefficients; one a CameraInfo cannot carry is said once and
-        the images are published as rectified."""
+        """The colour lens's OpenCV coefficients (its ImgTransformation's model); one a CameraInfo
+        cannot carry is said once and the images are published as rectified."""
+        t = color.getTransformation()
         try:
-            return _distortion(color)
+            return lens_distortion.from_depthai(t.getDistortionModel().name, list(t.getDistortionCoefficients()))
         except lens_distortion.UnsupportedDistortion as exc:
             if not self._said_distortion:
                 print(f"camera: DepthAI colour {exc}: publishing it as rectified", file=sys.stderr, flush=True)

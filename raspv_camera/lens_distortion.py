@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+import cv2
 import numpy as np
 
 from raspv_common.intrinsics import CameraIntrinsics
@@ -41,14 +42,6 @@ def _normalised_grid(K: CameraIntrinsics) -> tuple[np.ndarray, np.ndarray]:
     return (u.ravel() - K.cx) / K.fx, (v.ravel() - K.cy) / K.fy
 
 
-def opencv_distort(x: np.ndarray, y: np.ndarray, c) -> tuple[np.ndarray, np.ndarray]:
-    """OpenCV's (= librealsense's Brown–Conrady) distortion of normalised points, k1 k2 p1 p2 k3."""
-    k1, k2, p1, p2, k3 = (list(c) + [0.0] * 5)[:5]
-    r2 = x * x + y * y
-    f = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
-    return x * f + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * f + 2 * p2 * x * y + p1 * (r2 + 2 * y * y)
-
-
 def fit_opencv_coefficients(undistorted: tuple[np.ndarray, np.ndarray], distorted: tuple[np.ndarray, np.ndarray],
                             K: CameraIntrinsics) -> tuple[tuple[float, ...], float]:
     """(k1 k2 p1 p2 k3, largest residual [px]) taking ``undistorted`` normalised points to
@@ -62,8 +55,10 @@ def fit_opencv_coefficients(undistorted: tuple[np.ndarray, np.ndarray], distorte
     A = np.vstack([ax, ay])
     b = np.concatenate([xd - x, yd - y])
     coeffs = np.linalg.lstsq(A, b, rcond=None)[0]
-    px, py = opencv_distort(x, y, coeffs)
-    residual = float(np.max(np.hypot((px - xd) * K.fx, (py - yd) * K.fy)))
+    projected = cv2.projectPoints(np.column_stack([x, y, np.ones_like(x)]), np.zeros(3), np.zeros(3), K.K,
+                                  coeffs)[0].reshape(-1, 2)
+    target = np.column_stack([xd * K.fx + K.cx, yd * K.fy + K.cy])
+    residual = float(np.max(np.linalg.norm(projected - target, axis=1)))
     return tuple(float(v) for v in coeffs), residual
 
 
